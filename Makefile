@@ -1,0 +1,174 @@
+# cosserat-fsi: installation, runs and tests on two dolfinx stacks.
+#
+#   make run      set up the Debian stack (.venv) and run one scene        (SCENE=, OUT=, NP=, STACK=)
+#   make test     set up both stacks, then run the test suite on each, serial and under 2 MPI ranks
+#
+# Idempotent: each venv carries a stamp file named after a hash of its install recipe and of
+# pyproject.toml; pip runs only when that stamp is missing. The apt step checks with dpkg first and
+# calls apt-get only for missing packages.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+.NOTPARALLEL:
+
+# One BLAS/OpenMP thread per MPI rank (measured: 2 threads on 1 rank made MUMPS slower).
+export OPENBLAS_NUM_THREADS := 1
+export OMP_NUM_THREADS := 1
+export MPLBACKEND := Agg
+# OpenMPI refuses to run as root without these (harmless for MPICH and for non-root users).
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+
+# ------------------------------------------------------------------------------------ Debian stack
+APT_PACKAGES := python3-dolfinx-real python3-gmsh python3-h5py python3-yaml python3-venv \
+                python3-matplotlib python3-pip libopenblas0-pthread openmpi-bin
+SYSTEM_PYTHON := /usr/bin/python3
+VENV := .venv
+PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista
+MPIRUN_DEBIAN := mpirun --allow-run-as-root --oversubscribe
+
+# ------------------------------------------------------------------------------------ latest stack
+VENV_LATEST := .venv-latest
+PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest
+PYENV_ROOT ?= $(HOME)/.pyenv
+# A Python >= 3.12: pyenv's newest 3.12.x, else python3.12 on PATH. Override: make setup-latest PYTHON_LATEST=...
+PYTHON_LATEST ?= $(or $(lastword $(sort $(wildcard $(PYENV_ROOT)/versions/3.12*/bin/python3))),$(shell command -v python3.12 2>/dev/null))
+MPIRUN_LATEST := $(VENV_LATEST)/bin/mpiexec
+
+# Stamps: a hash of the recipe line and of pyproject.toml.
+hash = $(shell { printf '%s\n' '$(1)'; cat pyproject.toml; } | sha1sum | cut -c1-12)
+STAMP_DEBIAN := $(VENV)/.stamp-$(call hash,$(SYSTEM_PYTHON) $(PIP_DEBIAN) no-deps-editable)
+STAMP_LATEST := $(VENV_LATEST)/.stamp-$(call hash,$(PIP_LATEST) no-deps-editable)
+
+# ------------------------------------------------------------------------------------ runs
+SCENE ?= configs/schaefer_turek_2d1.yaml
+OUT ?= runs/$(basename $(notdir $(SCENE)))
+NP ?= 1
+STACK ?= debian
+ifeq ($(STACK),latest)
+  RUN_VENV := $(VENV_LATEST)
+  RUN_SETUP := setup-latest
+  RUN_MPI := $(MPIRUN_LATEST)
+else ifeq ($(STACK),debian)
+  RUN_VENV := $(VENV)
+  RUN_SETUP := setup
+  RUN_MPI := $(MPIRUN_DEBIAN)
+else
+  $(error STACK must be debian or latest, not '$(STACK)')
+endif
+PY := $(RUN_VENV)/bin/python
+LAUNCH := $(if $(filter-out 1,$(NP)),$(RUN_MPI) -n $(NP) ,)
+
+PYTEST_FLAGS := -q -rs --durations=15
+# Under mpirun both ranks would race on .pytest_cache.
+PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
+
+.PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
+        test-mpi-latest validate study info clean distclean
+
+help:
+	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
+	@echo "make test    both stacks: serial pytest, then -m mpi under 2 ranks"
+	@echo "make setup | setup-latest | info | validate | study | clean | distclean"
+
+# ------------------------------------------------------------------------------------ setup
+setup: apt $(STAMP_DEBIAN)
+
+apt:
+	@missing=""; \
+	for p in $(APT_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}\n' "$$p" 2>/dev/null | grep -qx 'install ok installed' || missing="$$missing $$p"; \
+	done; \
+	if [ -z "$$missing" ]; then echo "apt: all $(words $(APT_PACKAGES)) packages installed"; exit 0; fi; \
+	echo "apt: installing$$missing"; \
+	sudo=""; if [ "$$(id -u)" != 0 ]; then sudo=sudo; fi; \
+	$$sudo env DEBIAN_FRONTEND=noninteractive apt-get update; \
+	$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing
+
+$(STAMP_DEBIAN):
+	@if ! $(VENV)/bin/python -c 'import sys' 2>/dev/null \
+	   || ! grep -qx 'include-system-site-packages = true' $(VENV)/pyvenv.cfg; then \
+	  echo "venv: creating $(VENV) over $(SYSTEM_PYTHON) with system site-packages"; \
+	  rm -rf $(VENV); \
+	  $(SYSTEM_PYTHON) -m venv --system-site-packages $(VENV); \
+	fi
+	$(VENV)/bin/pip install $(foreach p,$(PIP_DEBIAN),'$(p)')
+	$(VENV)/bin/pip install --no-deps --no-build-isolation -e .
+	@rm -f $(VENV)/.stamp-*
+	@touch $@
+	@echo "setup: $(VENV) ready ($@)"
+
+setup-latest: $(STAMP_LATEST)
+
+$(STAMP_LATEST):
+	@if [ -z "$(PYTHON_LATEST)" ] || ! "$(PYTHON_LATEST)" -c 'import sys; sys.exit(sys.version_info < (3, 12))' 2>/dev/null; then \
+	  echo "error: setup-latest needs Python >= 3.12: none found as $(PYENV_ROOT)/versions/3.12*/bin/python3" >&2; \
+	  echo "       nor as python3.12 on PATH ('$(PYTHON_LATEST)'). Install one (e.g. pyenv install 3.12)" >&2; \
+	  echo "       or pass it: make setup-latest PYTHON_LATEST=/path/to/python3.12" >&2; \
+	  exit 1; \
+	fi
+	@if ! $(VENV_LATEST)/bin/python -c 'import sys; sys.exit(sys.version_info < (3, 12))' 2>/dev/null; then \
+	  echo "venv: creating $(VENV_LATEST) with $(PYTHON_LATEST)"; \
+	  rm -rf $(VENV_LATEST); \
+	  "$(PYTHON_LATEST)" -m venv $(VENV_LATEST); \
+	fi
+	$(VENV_LATEST)/bin/pip install $(PIP_LATEST)
+	$(VENV_LATEST)/bin/pip install --no-deps -e .
+	@rm -f $(VENV_LATEST)/.stamp-*
+	@touch $@
+	@echo "setup-latest: $(VENV_LATEST) ready ($@, $$(du -sh $(VENV_LATEST) | cut -f1))"
+
+# ------------------------------------------------------------------------------------ run
+# make run                                   Debian stack, serial
+# make run NP=2                              Debian stack, mpirun -n 2 (OpenMPI)
+# make run STACK=latest NP=2 SCENE=configs/turek_hron_fsi2.yaml
+run: $(RUN_SETUP)
+	$(LAUNCH)$(RUN_VENV)/bin/cosserat-fsi run $(SCENE) --out $(OUT)
+
+# ------------------------------------------------------------------------------------ tests
+# Every step runs even if an earlier one fails (-k); make exits non-zero if any failed.
+# pytest's exit code 5 ("no tests collected") is a failure here on purpose.
+test: setup setup-latest
+	@$(MAKE) --no-print-directory -k test-debian test-latest test-mpi
+
+test-debian: setup
+	@echo "=== pytest: Debian stack (dolfinx 0.5.2, serial) ==="
+	$(VENV)/bin/python -m pytest $(PYTEST_FLAGS)
+
+test-latest: setup-latest
+	@echo "=== pytest: latest stack (PyPI dolfinx-solver-real, serial) ==="
+	$(VENV_LATEST)/bin/python -m pytest $(PYTEST_FLAGS)
+
+test-mpi: test-mpi-debian test-mpi-latest
+
+test-mpi-debian: setup
+	@echo "=== pytest -m mpi: Debian stack, OpenMPI, 2 ranks ==="
+	$(MPIRUN_DEBIAN) -n 2 $(VENV)/bin/python -m pytest $(PYTEST_MPI_FLAGS)
+
+test-mpi-latest: setup-latest
+	@echo "=== pytest -m mpi: latest stack, MPICH, 2 ranks ==="
+	$(MPIRUN_LATEST) -n 2 $(VENV_LATEST)/bin/python -m pytest $(PYTEST_MPI_FLAGS)
+
+# ------------------------------------------------------------------------------------ studies
+validate: $(RUN_SETUP)
+	$(PY) -m cosserat_fsi.validate
+
+study: $(RUN_SETUP)
+	$(PY) -m cosserat_fsi.study
+
+info: setup setup-latest
+	@echo "=== Debian stack ($(VENV)) ==="
+	$(VENV)/bin/cosserat-fsi info
+	@echo "=== latest stack ($(VENV_LATEST)) ==="
+	$(VENV_LATEST)/bin/cosserat-fsi info
+
+# ------------------------------------------------------------------------------------ cleaning
+clean:
+	rm -rf runs/ .pytest_cache/ build/ *.egg-info
+	rm -f meshes/*.msh meshes/*.json
+	find . -path ./.venv -prune -o -path ./.venv-latest -prune -o -path ./.git -prune -o \
+	  -name __pycache__ -type d -print0 | xargs -0 rm -rf
+
+distclean: clean
+	rm -rf $(VENV) $(VENV_LATEST)

@@ -1,0 +1,112 @@
+"""Periodic analysis of time series in the Turek-Hron convention.
+
+A periodic result is "mean +- amplitude [frequency]" with mean = (max + min)/2 and amplitude =
+(max - min)/2 over the last full period (shared/reference/benchmarks.yaml). Periods are cut at the
+maxima of the dominant oscillation: a maximum is the largest sample of a complete excursion above
+``mid + h`` entered from and left to below ``mid - h`` (hysteresis ``h`` = half the amplitude), so
+small harmonics do not create extra periods. Each maximum is refined by parabolic interpolation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_CONSTANT_RTOL = 1e-10
+
+
+def _vertex(t: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
+    """Vertex of the parabola through samples i-1, i, i+1 (the sample itself at the ends)."""
+    if i == 0 or i == len(y) - 1:
+        return float(t[i]), float(y[i])
+    dt = t[i - 1:i + 2] - t[i]
+    c = np.polyfit(dt, y[i - 1:i + 2], 2)
+    if c[0] == 0.0:
+        return float(t[i]), float(y[i])
+    tv = float(np.clip(-c[1] / (2 * c[0]), dt[0], dt[2]))
+    return float(t[i] + tv), float(np.polyval(c, tv))
+
+
+def _cycle_maxima(y: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Index of the largest sample of every complete excursion from below ``lo`` to above ``hi``
+    and back below ``lo``."""
+    state = np.where(y > hi, 1, np.where(y < lo, -1, 0))
+    idx = np.flatnonzero(state)
+    s = state[idx]
+    flips = np.flatnonzero(s[1:] != s[:-1]) + 1
+    rises, falls = idx[flips[s[flips] == 1]], idx[flips[s[flips] == -1]]
+    j = np.searchsorted(falls, rises)
+    rises, ends = rises[j < len(falls)], falls[j[j < len(falls)]]
+    return np.array([a + int(np.argmax(y[a:b])) for a, b in zip(rises, ends)], dtype=int)
+
+
+def _levels(y: np.ndarray) -> tuple[float, float]:
+    mid, half = (y.max() + y.min()) / 2, (y.max() - y.min()) / 2
+    return mid - half / 2, mid + half / 2
+
+
+def _fft_frequency(t: np.ndarray, y: np.ndarray) -> float | None:
+    """Dominant frequency of a detrended, Hann-windowed, zero-padded FFT (Gaussian peak fit)."""
+    n = len(t)
+    tu = np.linspace(t[0], t[-1], n)
+    yu = np.interp(tu, t, y)
+    yu = yu - np.polyval(np.polyfit(tu, yu, 1), tu)
+    spec = np.abs(np.fft.rfft(yu * np.hanning(n), n=16 * n))
+    freqs = np.fft.rfftfreq(16 * n, tu[1] - tu[0])
+    k = int(np.argmax(spec[16:])) + 16  # skip the lowest bins (less than one period in the record)
+    if k >= len(spec) - 1 or spec[k] == 0.0:
+        return None
+    la, lb, lc = np.log(spec[k - 1:k + 2] + 1e-300)
+    shift = 0.5 * (la - lc) / (la - 2 * lb + lc) if la - 2 * lb + lc != 0 else 0.0
+    return float(freqs[k] + shift * (freqs[1] - freqs[0]))
+
+
+def periodic_analysis(t, y, n_periods: int = 2) -> dict:
+    """Mean, amplitude and frequency of the periodic tail of ``y(t)``.
+
+    Returns ``dict(mean, amplitude, frequency, periods_used, frequency_fft, method)``:
+    ``frequency`` = ``n_periods`` / (time between the last ``n_periods + 1`` maxima); mean and amplitude
+    from the max and min over the last full period; ``frequency_fft`` is the FFT estimate over the
+    last half of the record (cross-check). Without enough maxima the FFT frequency is used if the last
+    half holds more than ``n_periods`` periods (``method="fft"``, mean/amplitude over the last 1/f);
+    otherwise every field is None (``method=None``). A constant tail gives amplitude 0 and frequency
+    None (``method="constant"``).
+    """
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    if t.ndim != 1 or t.shape != y.shape or len(t) < 3 or np.any(np.diff(t) <= 0):
+        raise ValueError("periodic_analysis: t and y must be 1-D of equal length >= 3, t increasing")
+    if n_periods < 1:
+        raise ValueError("periodic_analysis: n_periods must be >= 1")
+    half = len(t) // 2
+    tail = y[half:]
+    result = dict(mean=None, amplitude=None, frequency=None, periods_used=0, frequency_fft=None,
+                  method=None)
+    if np.ptp(tail) <= _CONSTANT_RTOL * max(np.abs(tail).max(), np.finfo(float).tiny):
+        return result | dict(mean=float(tail.mean()), amplitude=0.0, method="constant")
+    result["frequency_fft"] = _fft_frequency(t[half:], tail)
+
+    peaks = _cycle_maxima(y, *_levels(tail))
+    if len(peaks) >= 3:  # refine the levels on the last two cycles
+        peaks = _cycle_maxima(y, *_levels(y[peaks[-3]:peaks[-1] + 1]))
+    if len(peaks) >= n_periods + 1:
+        tm = [_vertex(t, y, i)[0] for i in peaks[-n_periods - 1:]]
+        i0, i1 = peaks[-2], peaks[-1]
+        ymax = max(_vertex(t, y, i0)[1], _vertex(t, y, i1)[1])
+        ymin = -_vertex(t, -y, i0 + int(np.argmin(y[i0:i1 + 1])))[1]
+        return result | dict(mean=(ymax + ymin) / 2, amplitude=(ymax - ymin) / 2,
+                             frequency=n_periods / (tm[-1] - tm[0]), periods_used=n_periods,
+                             method="maxima")
+
+    f = result["frequency_fft"]
+    if f is not None and f * (t[-1] - t[half]) > n_periods + 1:
+        last = y[t >= t[-1] - 1 / f]
+        return result | dict(mean=(last.max() + last.min()) / 2,
+                             amplitude=(last.max() - last.min()) / 2, frequency=f,
+                             periods_used=int(f * (t[-1] - t[half])), method="fft")
+    return result
+
+
+def relative_error(value: float, reference: float) -> float:
+    """|value - reference| / |reference|; raises ValueError for a zero reference."""
+    if reference == 0:
+        raise ValueError("relative_error: reference is 0, use an absolute error")
+    return abs(value - reference) / abs(reference)

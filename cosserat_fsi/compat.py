@@ -1,0 +1,187 @@
+"""Every difference between dolfinx 0.5.2 (Debian) and dolfinx 0.11 (PyPI wheel) lives here.
+
+Nothing else in the package branches on the dolfinx version. Import this module before ``dolfinx``:
+on the wheel stack it imports ``dolfinx_solver`` first, which orders MPI ahead of the bindings.
+The measured table of differences is in shared/reference/dolfinx_stacks.md.
+"""
+
+from __future__ import annotations
+
+try:  # the PyPI wheel must be bootstrapped before dolfinx is imported
+    import dolfinx_solver  # noqa: F401
+except ImportError:
+    pass
+
+import numpy as np
+import ufl
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.geometry
+import dolfinx.mesh
+from petsc4py import PETSc
+
+DOLFINX_VERSION = tuple(int(v) for v in dolfinx.__version__.split(".")[:2])
+NEW = DOLFINX_VERSION >= (0, 8)
+"""True on the wheel stack (dolfinx 0.11); False on Debian's 0.5.2."""
+
+if NEW:
+    import basix.ufl
+    import dolfinx.io.gmsh as _gmshio
+else:
+    import dolfinx.io.gmshio as _gmshio
+
+
+# --------------------------------------------------------------------------------------------- mesh
+def read_msh(path, comm, gdim: int = 2):
+    """Read a gmsh .msh file on rank 0 and distribute it with shared-facet ghosting.
+
+    Returns ``(mesh, cell_tags, facet_tags)``.
+    """
+    if NEW:
+        partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
+        data = _gmshio.read_from_msh(str(path), comm, 0, gdim=gdim, partitioner=partitioner)
+        return data.mesh, data.cell_tags, data.facet_tags
+    # 0.5.2: read_from_msh is broken (returns an undefined name); create_mesh defaults to shared_facet
+    import gmsh
+
+    if comm.rank != 0:
+        return _gmshio.model_to_mesh(None, comm, 0, gdim=gdim)
+    gmsh.initialize(["-nopopup"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.merge(str(path))
+        return _gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
+    finally:
+        gmsh.finalize()
+
+
+def geometry_dofmap(mesh) -> np.ndarray:
+    """Geometry node indices per local cell, shape (num_cells, nodes_per_cell)."""
+    if NEW:
+        return mesh.geometry.dofmaps[0]
+    dm = mesh.geometry.dofmap
+    return dm.array.reshape(-1, dm.links(0).size)
+
+
+def num_owned_cells(mesh) -> int:
+    return mesh.topology.index_map(mesh.topology.dim).size_local
+
+
+def meshtags(mesh, dim: int, entities, values):
+    order = np.argsort(entities)
+    return dolfinx.mesh.meshtags(mesh, dim, np.asarray(entities, np.int32)[order],
+                                 np.asarray(values, np.int32)[order])
+
+
+# ------------------------------------------------------------------------------- elements and spaces
+def element(mesh, family: str, degree: int, shape: tuple | None = None):
+    """A (possibly vector-valued) Lagrange/DG element on the mesh's cell."""
+    if NEW:
+        return basix.ufl.element(family, mesh.basix_cell(), degree, shape=shape)
+    cell = mesh.ufl_cell()
+    if shape:
+        return ufl.VectorElement(family, cell, degree, dim=shape[0])
+    return ufl.FiniteElement(family, cell, degree)
+
+
+def mixed_element(elements):
+    if NEW:
+        return basix.ufl.mixed_element(list(elements))
+    return ufl.MixedElement(list(elements))
+
+
+def function_space(mesh, el_or_family, degree: int | None = None, shape: tuple | None = None):
+    """Function space from an element, or from ``(family, degree, shape)``."""
+    el = el_or_family if degree is None else element(mesh, el_or_family, degree, shape)
+    if NEW:
+        return dolfinx.fem.functionspace(mesh, el)
+    return dolfinx.fem.FunctionSpace(mesh, el)
+
+
+def collapse(subspace):
+    """``V.sub(i).collapse()`` → (collapsed space, ndarray of parent dofs)."""
+    V, dofs = subspace.collapse()
+    return V, np.asarray(dofs, dtype=np.int32)
+
+
+def cell_dofs(V) -> np.ndarray:
+    """Dof indices (blocks) per local cell, shape (num_cells, dofs_per_cell)."""
+    dm = V.dofmap.list
+    if NEW:
+        return dm
+    return dm.array.reshape(-1, dm.links(0).size)
+
+
+def interpolation_points(V) -> np.ndarray:
+    pts = V.element.interpolation_points
+    return pts() if callable(pts) else pts
+
+
+# -------------------------------------------------------------------------------- forms and PETSc
+JIT_OPTIONS = {"cffi_extra_compile_args": ["-O2", "-march=native"], "cffi_libraries": ["m"]}
+
+
+def form(f):
+    """Compile a UFL form (or list of forms)."""
+    if NEW:
+        return dolfinx.fem.form(f, jit_options=JIT_OPTIONS)
+    return dolfinx.fem.form(f, jit_params=JIT_OPTIONS)
+
+
+def create_vector(L_form, V):
+    """A PETSc vector for the compiled linear form ``L_form`` on space ``V``."""
+    if NEW:
+        return dolfinx.fem.petsc.create_vector(V)
+    return dolfinx.fem.petsc.create_vector(L_form)
+
+
+def petsc_vec(u):
+    """The PETSc vector wrapping a Function's values."""
+    return u.x.petsc_vec if NEW else u.vector
+
+
+def expression(expr, V):
+    """A compiled ``dolfinx.fem.Expression`` at the interpolation points of ``V``."""
+    return dolfinx.fem.Expression(expr, interpolation_points(V))
+
+
+# ----------------------------------------------------------------------------------- point location
+def bb_tree(mesh, dim: int | None = None, entities=None, padding: float = 0.0):
+    dim = mesh.topology.dim if dim is None else dim
+    if entities is None:
+        n = mesh.topology.index_map(dim)
+        entities = np.arange(n.size_local + n.num_ghosts, dtype=np.int32)
+    if NEW:
+        return dolfinx.geometry.bb_tree(mesh, dim, entities=entities, padding=padding)
+    return dolfinx.geometry.BoundingBoxTree(mesh, dim, entities, padding=padding)
+
+
+def collision_candidates(tree, points: np.ndarray):
+    """Candidate cells (bounding-box collisions) for points of shape (n, 3): (offsets, cells)."""
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    if NEW:
+        adj = dolfinx.geometry.compute_collisions_points(tree, pts)
+    else:
+        adj = dolfinx.geometry.compute_collisions(tree, pts)
+    return np.asarray(adj.offsets), np.asarray(adj.array)
+
+
+# ---------------------------------------------------------------------------------------- versions
+def versions() -> dict:
+    """Versions of the stack, for `cosserat-fsi info` and summary.json."""
+    import basix
+    import ffcx
+    import petsc4py
+    from mpi4py import MPI
+
+    return {
+        "dolfinx": dolfinx.__version__,
+        "basix": basix.__version__,
+        "ufl": getattr(ufl, "__version__", "unknown"),
+        "ffcx": ffcx.__version__,
+        "petsc": ".".join(str(v) for v in PETSc.Sys.getVersion()),
+        "petsc4py": petsc4py.__version__,
+        "mpi": MPI.Get_library_version().splitlines()[0].strip().strip("\x00"),
+        "mumps": bool(PETSc.Sys.hasExternalPackage("mumps")),
+    }

@@ -1,0 +1,381 @@
+"""Scene configuration: the typed, validated form of ``configs/<case>.yaml``.
+
+``load_scene(path, overrides)`` reads the YAML file, applies ``--set dotted.key=value`` overrides,
+validates it against the schema of docs/architecture.md and returns a :class:`Scene`. Every problem
+is raised as one :class:`~cosserat_fsi.errors.InputError` line ``"<dotted.key>: <problem>"``.
+
+This module must stay light: no dolfinx, petsc4py or gmsh imports.
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from pathlib import Path
+from typing import Annotated, Any, Literal, Sequence
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from cosserat_fsi.errors import InputError
+
+GEOMETRY_OF_BENCHMARK = {
+    "schaefer_turek_2d1": ("schaefer_turek", None),
+    "schaefer_turek_2d2": ("schaefer_turek", None),
+    "turek_hron_cfd1": ("turek_hron", "rigid"),
+    "turek_hron_cfd2": ("turek_hron", "rigid"),
+    "turek_hron_cfd3": ("turek_hron", "rigid"),
+    "turek_hron_csm1": ("turek_hron", "solid"),
+    "turek_hron_csm2": ("turek_hron", "solid"),
+    "turek_hron_fsi1": ("turek_hron", "solid"),
+    "turek_hron_fsi2": ("turek_hron", "solid"),
+    "turek_hron_fsi3": ("turek_hron", "solid"),
+    "seed_fsi3": ("turek_hron", "solid"),
+}
+"""Benchmark name -> (required geometry.name, required geometry.flag or None)."""
+
+Benchmark = Literal[
+    "schaefer_turek_2d1", "schaefer_turek_2d2",
+    "turek_hron_cfd1", "turek_hron_cfd2", "turek_hron_cfd3",
+    "turek_hron_csm1", "turek_hron_csm2",
+    "turek_hron_fsi1", "turek_hron_fsi2", "turek_hron_fsi3",
+    "seed_fsi3",
+]
+MAX_LEVEL = 6
+
+
+# --------------------------------------------------------------------------------------------- YAML
+
+class YamlLoader(yaml.SafeLoader):
+    """SafeLoader that reads ``1e-3`` as a float (YAML 1.1 wants ``1.0e-3``) and rejects duplicate keys."""
+
+    def construct_mapping(self, node, deep=False):
+        """Build a mapping, failing on a key that appears twice."""
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r}", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
+YamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                   |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                   |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                   |[-+]?\.(?:inf|Inf|INF)
+                   |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+def yaml_load(text: str) -> Any:
+    """Parse YAML text safely (no tags, no code), with ``1e-3`` read as a float."""
+    return yaml.load(text, Loader=YamlLoader)  # noqa: S506 (YamlLoader is a SafeLoader)
+
+
+# ------------------------------------------------------------------------------------------- schema
+
+class _Section(BaseModel):
+    """Base of every section: unknown keys and loose types (a string for a number) are errors."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+PositiveFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+
+
+class Geometry(_Section):
+    """Domain and mesh. ``length``/``height`` only for channel (defaults 1.0) and square (side ``length``)."""
+
+    name: Literal["turek_hron", "schaefer_turek", "channel", "square"]
+    level: int | Literal["seed"] = 0
+    flag: Literal["solid", "rigid"] | None = None
+    length: PositiveFloat | None = None
+    height: PositiveFloat | None = None
+
+    @field_validator("level", mode="before")
+    @classmethod
+    def _level(cls, value):
+        if value == "seed" or (type(value) is int and 0 <= value <= MAX_LEVEL):
+            return value
+        raise ValueError(f"must be an integer 0..{MAX_LEVEL} or 'seed' (got {value!r})")
+
+    @model_validator(mode="after")
+    def _defaults(self):
+        if self.name == "turek_hron" and self.flag is None:
+            self.flag = "solid"
+        if self.name in ("channel", "square") and self.length is None:
+            self.length = 1.0
+        if self.name == "channel" and self.height is None:
+            self.height = 1.0
+        return self
+
+    def msh_params(self) -> dict:
+        """The ``params`` argument of ``geometry.build_msh`` for this geometry."""
+        return {"turek_hron": {"flag": self.flag}, "schaefer_turek": {},
+                "channel": {"length": self.length, "height": self.height},
+                "square": {"size": self.length}}[self.name]
+
+
+class Fluid(_Section):
+    """Newtonian part of the fluid: density, dynamic viscosity, body force per unit mass."""
+
+    rho: PositiveFloat
+    mu: PositiveFloat
+    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+
+
+class Micropolar(_Section):
+    """Cosserat (micropolar) coefficients; all zero gives a Newtonian fluid."""
+
+    mu_r: NonNegFloat = 0.0
+    lambda1: NonNegFloat = 0.0
+    lambda2: NonNegFloat = 0.0
+    inertia: NonNegFloat = 0.0
+    body_couple: float = 0.0
+    wall_condition: Literal["zero", "half_curl"] = "zero"
+
+
+class Solid(_Section):
+    """Elastic body (Turek-Hron flag): density, shear modulus, second Mooney-Rivlin constant, gravity."""
+
+    rho: PositiveFloat
+    mu_s: PositiveFloat
+    c2: NonNegFloat = 0.0
+    gravity: float = 0.0
+
+
+class Inflow(_Section):
+    """Inlet velocity: mean speed, cosine ramp duration, profile."""
+
+    u_mean: NonNegFloat
+    ramp_time: NonNegFloat = 0.0
+    profile: Literal["parabolic", "uniform"] = "parabolic"
+
+
+class Time(_Section):
+    """Time step, end time and time-stepping scheme."""
+
+    dt: PositiveFloat
+    t_end: PositiveFloat
+    scheme: Literal["characteristics1", "characteristics2"] = "characteristics1"
+
+
+class Solver(_Section):
+    """Linear solver: pressure penalty and MUMPS fill-reducing ordering."""
+
+    penalty: float = Field(default=1e-10, ge=0)
+    mumps_ordering: Literal["metis", "pord", "amd", "auto"] = "auto"
+
+
+class Output(_Section):
+    """Output: field-output interval in steps, whether to write fields, progress bar."""
+
+    every: int = Field(default=10, ge=1)
+    fields: bool = True
+    progress: bool = True
+
+
+class Scene(_Section):
+    """A complete, validated scene (one run)."""
+
+    name: str = "scene"
+    benchmark: Benchmark | None = None
+    geometry: Geometry
+    fluid: Fluid
+    micropolar: Micropolar = Field(default_factory=Micropolar)
+    solid: Solid | None = None
+    inflow: Inflow | None = None
+    time: Time
+    solver: Solver = Field(default_factory=Solver)
+    output: Output = Field(default_factory=Output)
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, value):
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", value):
+            raise ValueError(f"must use only letters, digits, '_', '-', '.' (got {value!r})")
+        return value
+
+    @model_validator(mode="after")
+    def _cross_checks(self):
+        """Checks across sections; messages carry their full dotted key."""
+        geo, time = self.geometry, self.time
+        if time.t_end < time.dt:
+            raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
+        if geo.flag is not None and geo.name != "turek_hron":
+            raise ValueError(f"geometry.flag: only for geometry turek_hron (got {geo.name!r})")
+        if geo.level == "seed" and geo.name != "turek_hron":
+            raise ValueError(f"geometry.level: 'seed' only for geometry turek_hron (got {geo.name!r})")
+        for key in ("length", "height"):
+            if getattr(geo, key) is not None and (geo.name, key) not in (
+                    ("channel", "length"), ("channel", "height"), ("square", "length")):
+                raise ValueError(f"geometry.{key}: not used for geometry {geo.name!r}")
+        if self.benchmark is not None:
+            need_name, need_flag = GEOMETRY_OF_BENCHMARK[self.benchmark]
+            if geo.name != need_name:
+                raise ValueError(f"benchmark: {self.benchmark} needs geometry.name {need_name} "
+                                 f"(got {geo.name!r})")
+            if need_flag is not None and geo.flag != need_flag:
+                raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} "
+                                 f"(got {geo.flag!r})")
+        if geo.flag == "solid" and self.solid is None:
+            raise ValueError("solid: missing section (geometry.flag is solid; "
+                             "use geometry.flag: rigid for a fluid-only run)")
+        if self.inflow is None and geo.name in ("turek_hron", "schaefer_turek"):
+            raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
+        return self
+
+    @property
+    def has_micropolar(self) -> bool:
+        """True if any Cosserat coefficient (mu_r, lambda1, lambda2) is nonzero."""
+        m = self.micropolar
+        return any(v != 0 for v in (m.mu_r, m.lambda1, m.lambda2))
+
+    @property
+    def has_solid(self) -> bool:
+        """True if the mesh has solid cells (Turek-Hron with a solid flag) and a solid section."""
+        return self.solid is not None and self.geometry.name == "turek_hron" \
+            and self.geometry.flag == "solid"
+
+    @property
+    def has_inflow(self) -> bool:
+        """True if the scene prescribes an inlet velocity."""
+        return self.inflow is not None
+
+    def to_yaml(self) -> str:
+        """The fully resolved scene (all defaults filled in) as YAML that ``load_scene`` accepts."""
+        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False, default_flow_style=False)
+
+
+def dump_resolved(scene: Scene) -> str:
+    """The fully resolved scene as YAML (same as ``scene.to_yaml()``)."""
+    return scene.to_yaml()
+
+
+# ----------------------------------------------------------------------------------------- loading
+
+def _section_model(parts: Sequence[str]) -> type[BaseModel] | None:
+    """The model class at dotted path ``parts`` (``()`` is the Scene), or None if it is not a section."""
+    model: Any = Scene
+    for part in parts:
+        field = model.model_fields.get(part) if model else None
+        if field is None:
+            return None
+        model = next((a for a in (field.annotation, *getattr(field.annotation, "__args__", ()))
+                      if isinstance(a, type) and issubclass(a, BaseModel)), None)
+    return model
+
+
+def _unknown_key(parts: Sequence[str]) -> str:
+    """``"a.b: unknown key (did you mean 'c'?)"`` for the last element of ``parts``."""
+    model = _section_model(parts[:-1])
+    names = list(model.model_fields) if model else []
+    close = difflib.get_close_matches(parts[-1], names, n=1)
+    hint = f"did you mean {close[0]!r}?" if close else "allowed: " + ", ".join(names)
+    return f"{'.'.join(parts)}: unknown key ({hint})"
+
+
+def _dotted(loc: Sequence[str | int]) -> str:
+    """Pydantic location -> ``fluid.body_force[0]``."""
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else part)
+    return out
+
+
+def _describe(err: dict) -> str:
+    """One pydantic error -> ``"<dotted.key>: <problem>"``."""
+    loc, kind, got, ctx = err["loc"], err["type"], err.get("input"), err.get("ctx", {})
+    if kind == "value_error":
+        message = str(ctx["error"])
+        return f"{_dotted(loc)}: {message}" if loc else message
+    if kind == "extra_forbidden":
+        return _unknown_key([str(p) for p in loc])
+    if kind == "missing":
+        what = "missing section" if _section_model([str(p) for p in loc]) else "missing key"
+        return f"{_dotted(loc)}: {what}"
+    problems = {
+        "greater_than": lambda: f"must be > {ctx['gt']:g}",
+        "greater_than_equal": lambda: f"must be >= {ctx['ge']:g}",
+        "literal_error": lambda: "must be one of " + ", ".join(re.findall(r"'([^']*)'", ctx["expected"])),
+        "float_type": lambda: "must be a number",
+        "int_type": lambda: "must be an integer",
+        "bool_type": lambda: "must be true or false",
+        "string_type": lambda: "must be a string",
+        "list_type": lambda: "must be a list",
+        "too_short": lambda: f"must have {ctx.get('min_length')} entries",
+        "too_long": lambda: f"must have {ctx.get('max_length')} entries",
+        "model_type": lambda: "must be a mapping of keys",
+        "dict_type": lambda: "must be a mapping of keys",
+    }
+    problem = problems[kind]() if kind in problems else err["msg"].lower()
+    return f"{_dotted(loc)}: {problem} (got {got!r})"
+
+
+def _apply_override(data: dict, item: str) -> None:
+    """Apply one ``dotted.key=value`` override to the raw config mapping (in place)."""
+    key, sep, text = item.partition("=")
+    parts = key.strip().split(".")
+    if not sep or not all(re.fullmatch(r"\w+", p) for p in parts):
+        raise InputError(f"--set {item}: expected dotted.key=value (e.g. time.dt=1e-3)")
+    for i in range(len(parts)):
+        section = _section_model(parts[:i])
+        if section is None:
+            raise InputError(f"{'.'.join(parts[:i])}: is a value, not a section (in --set {key})")
+        if parts[i] not in section.model_fields:
+            raise InputError(_unknown_key(parts[:i + 1]))
+    try:
+        value = yaml_load(text)
+    except yaml.YAMLError as exc:
+        raise InputError(f"{key}: could not parse value {text!r} as YAML") from exc
+    node = data
+    for i, part in enumerate(parts[:-1]):
+        if node.get(part) is None:
+            node[part] = {}
+        if not isinstance(node[part], dict):
+            raise InputError(f"{'.'.join(parts[:i + 1])}: must be a mapping of keys to set {key}")
+        node = node[part]
+    node[parts[-1]] = value
+
+
+def validate_scene(data: Any, source: str = "config") -> Scene:
+    """Validate a raw mapping into a Scene, raising a one-line InputError."""
+    if not isinstance(data, dict):
+        got = "empty file" if data is None else type(data).__name__
+        raise InputError(f"{source}: top level must be a mapping of sections (got {got})")
+    try:
+        return Scene.model_validate(data)
+    except ValidationError as exc:
+        # an unknown key first: a misspelt key also shows up as a missing one
+        errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
+        more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
+        raise InputError(_describe(errors[0]) + more) from None
+
+
+def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
+    """Read, override and validate a scene file. ``name`` defaults to the file stem."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: could not read ({exc.__class__.__name__})") from None
+    try:
+        data = yaml_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f"line {mark.line + 1}: " if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise InputError(f"{path}: {line}could not parse YAML ({problem})") from None
+    if isinstance(data, dict):
+        data.setdefault("name", path.stem)
+        for item in overrides:
+            _apply_override(data, item)
+    return validate_scene(data, str(path))

@@ -1,0 +1,32 @@
+"""Rectangular channel [0,length]x[0,height]: inlet (x=0), outlet (x=length), walls (y=0, y=height).
+
+Structured (transfinite) triangles, "Left" diagonals: 8 divisions across the height at level 0, doubled per
+level; along the channel round(8 * length / height) (at least 1) times the same factor. Defaults 1 x 1:
+L0: 81 vertices (8x8), L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
+"""
+
+from . import _gmsh
+
+LEVELS = (0, 1, 2, 3, 4, 5, 6)
+DEFAULTS = {"length": 1.0, "height": 1.0}
+CHOICES = {}
+
+
+def describe(params):
+    """Tags and dimensions of the geometry."""
+    return {
+        "cell_tags": {"fluid": _gmsh.CELL_TAGS["fluid"]},
+        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("inlet", "outlet", "walls")},
+        "points": {},
+        "length": params["length"],
+        "height": params["height"],
+    }
+
+
+def build(gmsh, scale, params):
+    """Create and mesh the model in the current gmsh session; divisions are 8 / ``scale`` across."""
+    length, height = params["length"], params["height"]
+    ny = round(8 / scale)
+    nx = max(1, round(8 * length / height)) * ny // 8
+    _gmsh.transfinite_rectangle(gmsh, length, height, nx, ny, ("walls", "outlet", "walls", "inlet"))
+    gmsh.model.mesh.generate(2)

@@ -1,0 +1,72 @@
+"""Turek-Hron FSI benchmark: channel [0,2.5]x[0,0.41], cylinder (0.2,0.2) r=0.05, flag [~0.249,0.6]x[0.19,0.21].
+
+``flag: solid``: the flag is its own surface (cells tag 2), conforming with the fluid (OCC fragment);
+its top, bottom and right edges are interior facets tagged ``interface`` (5), the arc where it is clamped
+to the cylinder is tagged ``cylinder`` (4) like the rest of the circle. ``flag: rigid``: the flag is a hole
+in the fluid, its three free edges are exterior facets tagged 5. A = (0.6, 0.2) and B = (0.15, 0.2) are
+mesh vertices. Sizes: Threshold on the distance to cylinder and flag, h = 0.014 on them growing to
+0.07 at distance 0.3, both halved per level ("seed" scales level 0 by ``SEED_SCALE``).
+
+Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %), L0 / L1 / L2 / L3 / seed:
+solid flag 784 / 2,843 / 10,916 / 42,416 / 2,179 (seed paper: 2,199); rigid 758 / 2,723 / 10,378 / 40,211 / 2,087.
+"""
+
+import math
+
+from . import _gmsh
+
+LEVELS = (0, 1, 2, 3, 4, 5, 6, "seed")
+DEFAULTS = {"flag": "solid"}
+CHOICES = {"flag": ("solid", "rigid")}
+LENGTH, HEIGHT = 2.5, 0.41
+CENTRE, RADIUS = (0.2, 0.2), 0.05
+FLAG_END, FLAG_Y = 0.6, (0.19, 0.21)
+FLAG_START = CENTRE[0] + math.sqrt(RADIUS**2 - (FLAG_Y[1] - CENTRE[1]) ** 2)  # 0.24899
+SEED_SCALE = 0.575
+H_MIN, H_MAX, DIST_MAX = 0.014, 0.07, 0.3
+
+
+def describe(params):
+    """Tags, named points and dimensions of the geometry."""
+    cells = ["fluid", "solid"] if params["flag"] == "solid" else ["fluid"]
+    return {
+        "cell_tags": {k: _gmsh.CELL_TAGS[k] for k in cells},
+        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("inlet", "outlet", "walls", "cylinder", "interface")},
+        "points": {"A": (FLAG_END, CENTRE[1]), "B": (CENTRE[0] - RADIUS, CENTRE[1])},
+        "length": LENGTH,
+        "height": HEIGHT,
+        "cylinder": {"centre": CENTRE, "radius": RADIUS},
+        "flag": {"x": (FLAG_START, FLAG_END), "y": FLAG_Y},
+    }
+
+
+def build(gmsh, scale, params):
+    """Create and mesh the model in the current gmsh session; ``scale`` multiplies all element sizes."""
+    occ = gmsh.model.occ
+    box = occ.addRectangle(0, 0, 0, LENGTH, HEIGHT)
+    disk = _gmsh.occ_disk(gmsh, *CENTRE, RADIUS)
+    (y0, y1), ym = FLAG_Y, CENTRE[1]
+    # the flag rectangle from the cylinder centre, its tip split at A; the disk is cut out of it below
+    corners = [(CENTRE[0], y0), (FLAG_END, y0), (FLAG_END, ym), (FLAG_END, y1), (CENTRE[0], y1)]
+    pts = [occ.addPoint(x, y, 0) for x, y in corners]
+    flag = occ.addPlaneSurface([occ.addCurveLoop([occ.addLine(pts[i], pts[(i + 1) % 5]) for i in range(5)])])
+    fluid, _ = occ.cut([(2, box)], [(2, disk), (2, flag)], removeTool=False)
+    if params["flag"] == "solid":
+        solid, _ = occ.cut([(2, flag)], [(2, disk)])
+        _, children = occ.fragment(fluid, solid)
+        n = len(fluid)
+        fluid = [t for parts in children[:n] for _, t in parts]
+        solid = [t for parts in children[n:] for _, t in parts]
+    else:
+        occ.remove([(2, disk), (2, flag)], recursive=True)
+        fluid, solid = [t for _, t in fluid], []
+    occ.synchronize()
+    _gmsh.add_physical(gmsh, 2, fluid, "fluid")
+    if solid:
+        _gmsh.add_physical(gmsh, 2, solid, "solid")
+    curves = _gmsh.classify_channel_curves(gmsh, LENGTH, HEIGHT, (*CENTRE, RADIUS))
+    for name, tags in curves.items():
+        _gmsh.add_physical(gmsh, 1, tags, name)
+    near = curves["cylinder"] + curves["interface"]
+    _gmsh.threshold_field(gmsh, near, H_MIN * scale, H_MAX * scale, 0.0, DIST_MAX)
+    gmsh.model.mesh.generate(2)

@@ -1,0 +1,156 @@
+"""Moving-mesh XDMF time series: XDMF text + HDF5 data written by rank 0 with serial h5py.
+
+Each step stores the current mesh geometry and the fields at the mesh vertices, in the mesh's original
+(input) numbering, so the files do not depend on the number of ranks. After every step the .h5 file is
+flushed and the .xdmf file atomically replaced: a run killed at any moment leaves a readable pair that
+lists only flushed steps. ParaView opens the .xdmf directly (Xdmf3 reader).
+
+HDF5 layout: ``/mesh/topology`` (int64, cells x 3), ``/mesh/geometry/<step:06d>``,
+``/point/<name>/<step:06d>``, ``/cell/<name>/<step:06d>``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from cosserat_fsi import compat  # noqa: F401  (before dolfinx)
+import dolfinx.fem
+
+
+def _vec3(a: np.ndarray) -> np.ndarray:
+    """2-vectors are padded to 3-vectors (z = 0) so that ParaView draws glyphs."""
+    if a.ndim == 2 and a.shape[1] == 2:
+        return np.hstack([a, np.zeros((a.shape[0], 1), a.dtype)])
+    return a
+
+
+def _data_item(h5name: str, dataset: str, shape: tuple, dtype) -> str:
+    kind = "Int" if np.issubdtype(dtype, np.integer) else "Float"
+    dims = " ".join(str(s) for s in shape)
+    prec = np.dtype(dtype).itemsize
+    return (f'<DataItem Dimensions="{dims}" NumberType="{kind}" Precision="{prec}" '
+            f'Format="HDF">{h5name}:{dataset}</DataItem>')
+
+
+class MovingMeshXDMF:
+    """Write ``path`` (.xdmf) and ``path.with_suffix('.h5')`` for a mesh that moves between writes.
+
+    The mesh must have affine (P1) triangle geometry. Collective: every rank calls every method.
+    """
+
+    def __init__(self, path: Path, mesh, comm):
+        self.path, self.mesh, self.comm = Path(path), mesh, comm
+        self.h5path = self.path.with_suffix(".h5")
+        self.num_steps = 0
+        self.steps: list[tuple[float, dict]] = []  # rank 0: (t, {dataset: (shape, dtype)}) per step
+        geom = compat.geometry_dofmap(mesh)
+        if geom.shape[1] != 3:
+            raise ValueError("MovingMeshXDMF: only P1 triangle meshes are supported")
+        self.gdim = mesh.geometry.dim
+        self.n_nodes = mesh.geometry.index_map().size_local
+        self.n_cells = compat.num_owned_cells(mesh)
+        node_ids = np.asarray(mesh.geometry.input_global_indices, np.int64)
+        cell_ids = np.asarray(mesh.topology.original_cell_index, np.int64)[: self.n_cells]
+        # rank 0: owned entities of all ranks, sorted by original index
+        all_nodes = comm.gather(node_ids[: self.n_nodes], root=0)
+        all_cells = comm.gather(cell_ids, root=0)
+        cells = comm.gather(node_ids[geom[: self.n_cells]], root=0)
+        self._p1: dict[tuple, tuple] = {}  # value shape -> (P1 space, P1 function)
+        self.h5 = self.node_order = self.cell_order = None
+        if comm.rank == 0:
+            nodes = np.concatenate(all_nodes)
+            self.node_order = np.argsort(nodes, kind="stable")
+            self.cell_order = np.argsort(np.concatenate(all_cells), kind="stable")
+            sorted_nodes = nodes[self.node_order]
+            topology = np.searchsorted(sorted_nodes, np.concatenate(cells)[self.cell_order])
+            self.h5 = h5py.File(self.h5path, "w")
+            self.h5.create_dataset("mesh/topology", data=topology.astype(np.int64))
+            self.h5.flush()
+
+    def _gather(self, local: np.ndarray, order: np.ndarray | None):
+        """Owned values of all ranks on rank 0, in original numbering (None elsewhere)."""
+        parts = self.comm.gather(np.ascontiguousarray(local), root=0)
+        if self.comm.rank != 0:
+            return None
+        return np.concatenate(parts)[order]
+
+    def _vertex_values(self, u: dolfinx.fem.Function) -> np.ndarray:
+        """Values of ``u`` at the owned geometry nodes: (n,) or (n, bs)."""
+        shape = tuple(u.ufl_shape)
+        if shape not in self._p1:
+            V1 = compat.function_space(self.mesh, "Lagrange", 1, shape or None)
+            self._p1[shape] = (V1, dolfinx.fem.Function(V1))
+        V1, u1 = self._p1[shape]
+        u1.interpolate(u)
+        bs = V1.dofmap.index_map_bs
+        vals = u1.x.array.reshape(-1, bs)
+        geom = compat.geometry_dofmap(self.mesh)
+        out = np.empty((self.mesh.geometry.x.shape[0], bs))
+        out[geom.ravel()] = vals[compat.cell_dofs(V1).ravel()]
+        out = out[: self.n_nodes]
+        return out[:, 0] if not shape else out
+
+    def write(self, t: float, point_data: dict | None = None, cell_data: dict | None = None):
+        """Write one step: the current geometry, point fields (Functions, any Lagrange degree) and
+        cell fields (arrays whose first ``num_owned_cells`` rows are the owned cells)."""
+        step = self.num_steps
+        data = {"mesh/geometry": self._gather(self.mesh.geometry.x[: self.n_nodes, : self.gdim],
+                                              self.node_order)}
+        for name, u in (point_data or {}).items():
+            data[f"point/{name}"] = self._gather(self._vertex_values(u), self.node_order)
+        for name, a in (cell_data or {}).items():
+            data[f"cell/{name}"] = self._gather(np.asarray(a)[: self.n_cells], self.cell_order)
+        if self.comm.rank == 0:
+            shapes = {}
+            for key, a in data.items():
+                a = a if key == "mesh/geometry" else _vec3(a)
+                self.h5.create_dataset(f"{key}/{step:06d}", data=a)
+                shapes[key] = (a.shape, a.dtype)
+            self.h5.flush()
+            self.steps.append((float(t), shapes))
+            self._write_xdmf()
+        self.num_steps += 1
+        self.comm.barrier()
+
+    def _write_xdmf(self):
+        h5name = self.h5path.name
+        topo = self.h5["mesh/topology"]
+        lines = ['<?xml version="1.0"?>', '<Xdmf Version="3.0">', "<Domain>",
+                 '<Grid Name="mesh" GridType="Collection" CollectionType="Temporal">']
+        for step, (t, shapes) in enumerate(self.steps):
+            gshape, gdtype = shapes["mesh/geometry"]
+            lines += [f'<Grid Name="step_{step:06d}" GridType="Uniform">',
+                      f'<Time Value="{t!r}"/>',
+                      f'<Topology TopologyType="Triangle" NumberOfElements="{topo.shape[0]}">',
+                      _data_item(h5name, "/mesh/topology", topo.shape, topo.dtype), "</Topology>",
+                      f'<Geometry GeometryType="{"XY" if gshape[1] == 2 else "XYZ"}">',
+                      _data_item(h5name, f"/mesh/geometry/{step:06d}", gshape, gdtype), "</Geometry>"]
+            for key, (shape, dtype) in shapes.items():
+                if key == "mesh/geometry":
+                    continue
+                center = "Node" if key.startswith("point/") else "Cell"
+                kind = "Scalar" if len(shape) == 1 else ("Vector" if shape[1] == 3 else "Matrix")
+                lines += [f'<Attribute Name="{key.split("/", 1)[1]}" AttributeType="{kind}" '
+                          f'Center="{center}">',
+                          _data_item(h5name, f"/{key}/{step:06d}", shape, dtype), "</Attribute>"]
+            lines.append("</Grid>")
+        lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        tmp.write_text("\n".join(lines))
+        os.replace(tmp, self.path)
+
+    def close(self):
+        """Close the HDF5 file (the files are complete after every write already)."""
+        if self.h5 is not None:
+            self.h5.close()
+            self.h5 = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,47 @@
+"""Fluid part of the monolithic system: seed eqs. (31) and (32), time-discrete with characteristics.
+
+Both functions return ``(a, L)`` UFL forms; they are pure (no dolfinx objects are created here).
+
+Time discretisation: ``alpha * (u^{n+1} - h) / dt`` with the *history* h built by the characteristics:
+first order (seed): alpha = 1, h = u^n∘X^n; BDF2: alpha = 3/2, h = (4 u^n∘X¹ − u^{n−1}∘X²)/3, so the
+right-hand side is ``alpha * rho / dt * h``. The caller passes ``alpha`` and ``history = alpha * h``.
+
+Viscous convention: the seed writes (μ + μ_r) Du:Dũ with Du = ∇u + ∇uᵀ (eq. 18). Its strong form (23) has
+(μ + μ_r)Δu, which the weak form only gives with a factor ½: ∫ μ Du:∇ũ = ½ ∫ μ Du:Dũ. We use the ½; the
+micropolar Poiseuille solution (tests) fixes it.
+"""
+
+import ufl
+
+from .kinematics import D, curl_scalar, curl_vector
+
+
+def navier_stokes(u, p, v, q, *, rho, mu, inv_dt, alpha, history, body_force, penalty, dx):
+    """Seed eq. (31) without solid and micro-rotation terms.
+
+    a = α ρ/δt (u, ũ) + μ/2 (Du, Dũ) − (p, div ũ) − (p̃, div u) − ζ (p, p̃),
+    L = ρ/δt (α h, ũ) + (f, ũ).
+    """
+    a = (alpha * rho * inv_dt * ufl.inner(u, v)
+         + 0.5 * mu * ufl.inner(D(u), D(v))
+         - p * ufl.div(v) - q * ufl.div(u) - penalty * p * q) * dx
+    L = (rho * inv_dt * ufl.inner(history, v) + ufl.inner(body_force, v)) * dx
+    return a, L
+
+
+def micropolar(u, omega, v, tau, *, rho, mu_r, lambda1, inertia, inv_dt, alpha, history, body_couple, dx):
+    """Micropolar terms: the μ_r parts of seed eq. (31) and the micro-rotation equation (32), 2D.
+
+    a = μ_r/2 (Du, Dũ) − 2μ_r (curl ω, ũ)
+        + α ρ I/δt (ω, τ) + λ₁ (∇ω, ∇τ) + 4μ_r (ω, τ) − 2μ_r (curl u, τ),
+    L = ρ I/δt (α h_ω, τ) + (g, τ).
+    In 2D ω = ω e_z has zero divergence, so the λ₂ term of eq. (32) vanishes.
+    """
+    a = (0.5 * mu_r * ufl.inner(D(u), D(v))
+         - 2 * mu_r * ufl.inner(curl_scalar(omega), v)
+         + alpha * rho * inertia * inv_dt * omega * tau
+         + lambda1 * ufl.inner(ufl.grad(omega), ufl.grad(tau))
+         + 4 * mu_r * omega * tau
+         - 2 * mu_r * curl_vector(u) * tau) * dx
+    L = (rho * inertia * inv_dt * history * tau + body_couple * tau) * dx
+    return a, L

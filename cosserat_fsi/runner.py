@@ -1,0 +1,186 @@
+"""Run one scene: mesh → stepper → observables → outputs (the CLI contract of `cosserat-fsi run`).
+
+Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
+summary.json (and run.log through the CLI's logging).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from . import __version__, compat
+from .analysis import periodic_analysis, relative_error
+from .config import dump_resolved
+from .errors import DivergenceError
+from .geometry import build_msh
+from .io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
+from .observables import Observables, schaefer_turek_coefficients
+from .references import reference_for
+from .scheme.stepper import Stepper
+
+log = logging.getLogger("cosserat_fsi")
+
+PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3", "seed_fsi3"}
+
+
+def load_mesh(scene, comm):
+    """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
+    geo = scene.geometry
+    path = build_msh(geo.name, geo.level, geo.msh_params()) if comm.rank == 0 else None
+    path = comm.bcast(path, root=0)
+    mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
+    return mesh, cell_tags, facet_tags, path
+
+
+def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True) -> dict:
+    """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json)."""
+    out_dir = Path(out_dir)
+    wall0 = time.perf_counter()
+    if comm.rank == 0:
+        (out_dir / "config.yaml").write_text(dump_resolved(scene), encoding="utf-8")
+    mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
+    n_vertices = mesh.topology.index_map(0).size_global
+    stepper = Stepper(scene, mesh, cell_tags, facet_tags, comm)
+    observables = Observables(stepper)
+    log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
+             mesh.topology.index_map(mesh.topology.dim).size_global)
+    log.info("model: %s", stepper.model.describe())
+    log.info("dofs: %s", stepper.num_dofs())
+    setup_time = time.perf_counter() - wall0
+
+    n_steps = int(round(scene.time.t_end / scene.time.dt))
+    every = scene.output.every
+    series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm)
+    fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm) if scene.output.fields else None
+    bar = _progress_bar(n_steps, progress and comm.rank == 0)
+    status, message = "completed", ""
+    try:
+        if fields is not None:
+            _write_fields(fields, stepper)
+        for k in range(n_steps):
+            stepper.advance()
+            with stepper.timers("observables"):
+                series.write(stepper.t, observables.evaluate())
+            if fields is not None and (k + 1) % every == 0:
+                with stepper.timers("output"):
+                    _write_fields(fields, stepper)
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix_str(f"t={stepper.t:.4g}", refresh=False)
+    except DivergenceError as exc:
+        status, message = "diverged", str(exc)
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+        series.close()
+        if fields is not None:
+            fields.close()
+        summary = _summary(scene, stepper, out_dir, n_vertices, setup_time, time.perf_counter() - wall0,
+                           status, message, comm)
+    return summary
+
+
+def _progress_bar(total: int, enabled: bool):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="step", dynamic_ncols=True, mininterval=0.5)
+
+
+def _write_fields(fields, stepper):
+    point = {"velocity": stepper.u_n, "pressure": stepper.p_n}
+    if stepper.model.micro_rotation:
+        point["micro_rotation"] = stepper.omega_n
+    cells = None
+    if stepper.cell_tags is not None:
+        n_owned = compat.num_owned_cells(stepper.mesh)
+        marker = np.zeros(n_owned)
+        ct = stepper.cell_tags
+        owned = ct.indices < n_owned
+        marker[ct.indices[owned]] = ct.values[owned]
+        cells = {"subdomain": marker}
+    fields.write(stepper.t, point, cells)
+
+
+def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
+    """summary.json: versions, sizes, timings, periodic analysis, comparison with the reference."""
+    summary = None
+    if comm.rank == 0:
+        series = read_timeseries(out_dir / "timeseries.csv") if stepper.step_count else {}
+        steps = max(stepper.step_count, 1)
+        summary = {
+            "scene": scene.name,
+            "status": status,
+            "message": message,
+            "versions": {"cosserat_fsi": __version__, **compat.versions()},
+            "ranks": comm.size,
+            "mesh": {"geometry": scene.geometry.name, "level": scene.geometry.level, "vertices": n_vertices},
+            "model": stepper.model.describe(),
+            "dofs": stepper.num_dofs(),
+            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": stepper.step_count,
+                     "t_final": stepper.t},
+            "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
+                          "phases": dict(stepper.timers.totals)},
+            "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
+            "periodic": _periodic(series),
+        }
+        if scene.benchmark:
+            summary["benchmark"] = compare_with_reference(scene, summary)
+        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")
+    return comm.bcast(summary, root=0)
+
+
+def _periodic(series: dict) -> dict:
+    """Periodic analysis of every observable that oscillates (over its last full periods)."""
+    out = {}
+    for key, values in series.items():
+        if key != "t" and len(values) > 10:
+            analysis = periodic_analysis(series["t"], values)
+            if analysis.get("method") not in (None, "constant"):
+                out[key] = analysis
+    return out
+
+
+def compare_with_reference(scene, summary: dict) -> dict:
+    """{observable: {value, reference, error}} for the scene's benchmark (relative errors)."""
+    ref = reference_for(scene.benchmark)
+    final = summary["final"]
+    computed = dict(final)
+    if scene.benchmark == "schaefer_turek_2d1" and "drag" in final:
+        computed["c_D"], computed["c_L"] = schaefer_turek_coefficients(
+            final["drag"], final["lift"], scene.fluid.rho, scene.inflow.u_mean)
+    out = {"name": scene.benchmark}
+    for key, reference in ref.items():
+        if isinstance(reference, dict) and "frequency" in reference:
+            analysis = summary["periodic"].get(key)
+            if not analysis:
+                continue
+            out[key] = {part: {"value": analysis.get(part), "reference": reference[part],
+                               "error": _error(analysis.get(part), reference[part])}
+                        for part in ("mean", "amplitude", "frequency") if part in reference}
+        elif isinstance(reference, float) and key in computed:
+            out[key] = {"value": computed[key], "reference": reference,
+                        "error": _error(computed[key], reference)}
+    return out
+
+
+def _error(value, reference):
+    if value is None or reference in (None, 0):
+        return None
+    return relative_error(value, reference)
+
+
+def _json(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(type(obj))

@@ -1,0 +1,211 @@
+"""Method of characteristics: evaluate fields at the feet X^n(x) = x − δt (u^n − w)(x) (seed §5.1).
+
+The feet are computed at the nodes of a P2 space (the velocity and micro-rotation share them) and the
+fields are evaluated there with a parallel point location:
+
+1. local search: bounding-box candidates among the rank's cells (owned + ghost) and a vectorised
+   barycentric test (dolfinx 0.11's exact GJK test is 10–15× slower, shared/reference/dolfinx_stacks.md);
+2. cross-rank search: feet found on no local cell (≈ 0.15 % with shared-facet ghosts) are gathered on
+   every rank, located among owned cells and evaluated by the owner;
+3. feet outside the domain are pulled back towards their node (halving the step) until they are inside,
+   so they take the value at the boundary crossing ("points that leave the domain take the boundary value").
+
+w is the mesh velocity (ALE): with w = 0 this is the fixed-mesh scheme.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from mpi4py import MPI
+
+from .. import compat
+
+_TOL = 1e-10  # barycentric tolerance, relative to the reference triangle
+
+
+class PointLocator:
+    """Finds, for points in physical space, a local cell containing each (affine triangles)."""
+
+    def __init__(self, mesh):
+        self.mesh = mesh
+        self.update()
+
+    def update(self):
+        """Rebuild the search structures (call after the mesh moved)."""
+        mesh = self.mesh
+        tdim = mesh.topology.dim
+        imap = mesh.topology.index_map(tdim)
+        self.num_owned = imap.size_local
+        n_cells = imap.size_local + imap.num_ghosts
+        self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
+        x = mesh.geometry.x[:, :2]
+        nodes = compat.geometry_dofmap(mesh)[:n_cells, :3]
+        x0 = x[nodes[:, 0]]
+        J = np.stack([x[nodes[:, 1]] - x0, x[nodes[:, 2]] - x0], axis=2)  # (n, 2, 2): columns edges
+        self.x0 = x0
+        self.Jinv = np.linalg.inv(J)
+
+    def locate(self, points: np.ndarray, owned_only: bool = False) -> np.ndarray:
+        """Local cell index per point (−1 if none). ``points`` has shape (n, 3)."""
+        cells = np.full(len(points), -1, dtype=np.int32)
+        if len(points) == 0:
+            return cells
+        offsets, candidates = compat.collision_candidates(self.tree, points)
+        counts = np.diff(offsets)
+        point_of = np.repeat(np.arange(len(points)), counts)
+        if owned_only:
+            keep = candidates < self.num_owned
+            point_of, candidates = point_of[keep], candidates[keep]
+        if len(candidates) == 0:
+            return cells
+        d = points[point_of, :2] - self.x0[candidates]
+        lam = np.einsum("nij,nj->ni", self.Jinv[candidates], d)
+        lam_min = np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1.0 - lam[:, 0] - lam[:, 1])
+        inside = lam_min >= -_TOL
+        # first inside candidate per point (pairs are sorted by point)
+        pts_in, first = np.unique(point_of[inside], return_index=True)
+        cells[pts_in] = candidates[inside][first]
+        return cells
+
+
+def evaluate(locator: PointLocator, functions, points: np.ndarray, anchors: np.ndarray,
+             comm=MPI.COMM_WORLD, bisections: int = 12):
+    """Values of ``functions`` at ``points`` (n, 3), parallel; outside points are pulled to ``anchors``.
+
+    ``anchors`` are points known to be in a local cell (the nodes the feet start from). A foot outside
+    the domain is replaced by the last inside point of the segment anchor → foot, found by bisection to
+    2^-bisections of its length. Returns a list of (n, value_size) arrays, one per function. Collective.
+    """
+    values, found = _evaluate_anywhere(locator, functions, points, comm)
+    out = np.flatnonzero(~found)
+    if comm.allreduce(len(out), op=MPI.SUM) == 0:
+        return values
+    lo, hi = np.zeros(len(out)), np.ones(len(out))
+    seg = points[out] - anchors[out]
+    for _ in range(bisections):
+        mid = 0.5 * (lo + hi)
+        _, inside = _evaluate_anywhere(locator, [], anchors[out] + mid[:, None] * seg, comm)
+        lo = np.where(inside, mid, lo)
+        hi = np.where(inside, hi, mid)
+    vals_in, inside = _evaluate_anywhere(locator, functions, anchors[out] + lo[:, None] * seg, comm)
+    if not comm.allreduce(bool(inside.all()), op=MPI.LAND):
+        raise RuntimeError("characteristics: a node of the mesh is in no cell (corrupt mesh?)")
+    for val, v_in in zip(values, vals_in):
+        val[out] = v_in
+    return values
+
+
+def _evaluate_anywhere(locator, functions, pts, comm):
+    """Values at points searched among local cells, then among the other ranks' owned cells. Collective.
+
+    Returns (list of (n, size) arrays, found mask).
+    """
+    values = [np.zeros((len(pts), _value_count(f))) for f in functions]
+    cells = locator.locate(pts)
+    found = cells >= 0
+    for f, val in zip(functions, values):
+        if found.any():
+            val[found] = f.eval(pts[found], cells[found]).reshape(found.sum(), -1)
+    lost = np.flatnonzero(~found)
+    found[lost] = _remote_evaluate(locator, functions, pts[lost], values, lost, comm)
+    return values, found
+
+
+def _value_count(f):
+    shape = f.ufl_shape
+    return int(np.prod(shape)) if shape else 1
+
+
+def _remote_evaluate(locator, functions, pts, values, lost, comm):
+    """Evaluate at points that no local cell contains, on the rank that owns them. Collective."""
+    if comm.size == 1:
+        return np.zeros(len(pts), dtype=bool)
+    counts = comm.allgather(len(pts))
+    if sum(counts) == 0:
+        return np.zeros(0, dtype=bool)
+    all_pts = np.concatenate(comm.allgather(pts)) if sum(counts) else np.zeros((0, 3))
+    cells = locator.locate(all_pts, owned_only=True)
+    found = cells >= 0
+    hit = comm.allreduce(found.astype(np.int64), op=MPI.SUM)
+    start = int(np.sum(counts[:comm.rank]))
+    mine = slice(start, start + len(pts))
+    for f, val in zip(functions, values):
+        local = np.zeros((len(all_pts), val.shape[1]))
+        if found.any():
+            local[found] = f.eval(all_pts[found], cells[found]).reshape(found.sum(), -1)
+        total = comm.allreduce(local, op=MPI.SUM)
+        ok = hit[mine] > 0
+        val[lost[ok]] = total[mine][ok] / hit[mine][ok, None]
+    return hit[mine] > 0
+
+
+class Characteristics:
+    """Back-tracking on the nodes of a P2 space V (vector; bs = gdim) and, optionally, a scalar P2 space S.
+
+    All local nodes (owned and ghost) are tracked, so every local node of S has its value without a
+    scatter; callers scatter forward afterwards to make ghosts bit-equal to their owners. ``V`` and ``S``
+    are collapsed sub-spaces with the same element layout; the node permutation between them is built
+    from their cell dofmaps.
+    """
+
+    def __init__(self, V, S=None, comm=MPI.COMM_WORLD):
+        mesh = V.mesh
+        self.comm = comm
+        self.locator = PointLocator(mesh)
+        self.V = V
+        imap = V.dofmap.index_map
+        self.n_nodes = imap.size_local + imap.num_ghosts
+        self.S = S
+        if S is not None:
+            cdV, cdS = compat.cell_dofs(V), compat.cell_dofs(S)
+            n_nodes = S.dofmap.index_map.size_local + S.dofmap.index_map.num_ghosts
+            perm = np.empty(n_nodes, dtype=np.int64)
+            perm[cdS.ravel()] = cdV.ravel()
+            self.S_from_V = perm  # local S node -> local V node
+
+    def nodes(self) -> np.ndarray:
+        """Local node coordinates of V (recomputed: the mesh may move)."""
+        return self.V.tabulate_dof_coordinates()[: self.n_nodes]
+
+    def feet(self, velocity_nodal: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes x and feet x − dt·v for the local nodal velocity v (shape (n_nodes, 2))."""
+        x = self.nodes()
+        feet = x.copy()
+        feet[:, :2] -= dt * velocity_nodal
+        return x, feet
+
+    def nodal(self, f) -> np.ndarray:
+        """Local nodal values of a function on V, shape (n_nodes, bs)."""
+        bs = f.function_space.dofmap.index_map_bs
+        return f.x.array[: self.n_nodes * bs].reshape(-1, bs)
+
+    def backtrack(self, transport_velocity: np.ndarray, dt: float, functions):
+        """Values of ``functions`` at the feet of the local V nodes: list of (n_nodes, size) arrays."""
+        x, feet = self.feet(transport_velocity, dt)
+        return evaluate(self.locator, functions, feet, x, self.comm)
+
+    def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
+        """Reorder values at local V nodes to the local nodes of S."""
+        return values_at_V_nodes[self.S_from_V]
+
+
+def probe(locator: PointLocator, functions, points: np.ndarray, comm=MPI.COMM_WORLD):
+    """Values of ``functions`` at fixed points (same on every rank), from the ranks owning them. Collective.
+
+    Returns a list of (n, size) arrays (NaN where no rank owns the point: outside the domain).
+    """
+    points = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    if points.shape[1] == 2:
+        points = np.hstack([points, np.zeros((len(points), 1))])
+    cells = locator.locate(points, owned_only=True)
+    found = cells >= 0
+    hits = comm.allreduce(found.astype(np.int64), op=MPI.SUM)
+    out = []
+    for f in functions:
+        local = np.zeros((len(points), _value_count(f)))
+        if found.any():
+            local[found] = f.eval(points[found], cells[found]).reshape(found.sum(), -1)
+        total = comm.allreduce(local, op=MPI.SUM)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.append(np.where(hits[:, None] > 0, total / np.maximum(hits, 1)[:, None], np.nan))
+    return out

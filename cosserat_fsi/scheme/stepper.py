@@ -1,0 +1,299 @@
+"""The time loop: characteristics → assemble → MUMPS solve → update (seed §5).
+
+One stepper owns the loop. On a fixed mesh the matrix of the characteristics-Galerkin scheme does not change
+from step to step (the convection is in the right-hand side), so it is assembled and factorised once per
+value of the BDF coefficient α: once for the seed's first-order scheme, twice for BDF2 (its first step
+is first order).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from mpi4py import MPI
+
+from .. import compat
+from ..errors import DivergenceError, InputError
+from ..physics import fluid
+from .characteristics import Characteristics
+from .spaces import mixed_space
+
+import dolfinx
+import dolfinx.fem.petsc as fem_petsc
+import ufl
+from petsc4py import PETSc
+
+SCHEMES = {"characteristics1": 1, "characteristics2": 2}
+
+MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
+
+NO_SLIP = ("walls", "cylinder", "interface")
+TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6}
+
+
+@dataclass(frozen=True)
+class Model:
+    """Which fields and terms a scene needs ("model only what the scene requires")."""
+
+    micro_rotation: bool
+    solid: bool
+    moving_mesh: bool
+
+    @classmethod
+    def from_scene(cls, scene):
+        solid = bool(scene.has_solid)
+        return cls(micro_rotation=bool(scene.has_micropolar), solid=solid, moving_mesh=solid)
+
+    def describe(self) -> str:
+        fields = ["velocity (P2)"] + (["micro-rotation (P2)"] if self.micro_rotation else []) + ["pressure (P1)"]
+        parts = ["fields: " + ", ".join(fields)]
+        if not self.micro_rotation:
+            parts.append("no micro-rotation (mu_r = lambda1 = lambda2 = 0)")
+        parts.append("solid terms" if self.solid else "no solid terms")
+        parts.append("moving mesh" if self.moving_mesh else "fixed mesh")
+        return "; ".join(parts)
+
+
+def ramp(t: float, ramp_time: float) -> float:
+    """Turek–Hron inflow ramp (1 − cos(π t / T))/2 for t < T, then 1."""
+    if ramp_time <= 0 or t >= ramp_time:
+        return 1.0
+    return 0.5 * (1.0 - np.cos(np.pi * t / ramp_time))
+
+
+@dataclass
+class Timers:
+    """Accumulated wall time per phase of the step."""
+
+    totals: dict = field(default_factory=dict)
+
+    def add(self, name: str, seconds: float):
+        self.totals[name] = self.totals.get(name, 0.0) + seconds
+
+    class _Ctx:
+        def __init__(self, timers, name):
+            self.timers, self.name = timers, name
+
+        def __enter__(self):
+            self.t0 = time.perf_counter()
+
+        def __exit__(self, *exc):
+            self.timers.add(self.name, time.perf_counter() - self.t0)
+
+    def __call__(self, name: str):
+        return Timers._Ctx(self, name)
+
+
+class Stepper:
+    """Monolithic velocity (× micro-rotation) × pressure system of one scene, advanced step by step."""
+
+    def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD):
+        self.scene, self.mesh, self.comm = scene, mesh, comm
+        self.model = Model.from_scene(scene)
+        if self.model.solid:
+            raise InputError("solid: the solid and the moving mesh are not implemented yet; "
+                             "use geometry.flag: rigid for a fluid-only Turek–Hron scene")
+        self.cell_tags, self.facet_tags = cell_tags, facet_tags
+        self.timers = Timers()
+        self.dt = float(scene.time.dt)
+        self.order = SCHEMES[scene.time.scheme]
+        self.t = 0.0
+        self.step_count = 0
+
+        self.space = sp = mixed_space(mesh, self.model.micro_rotation)
+        self.w = dolfinx.fem.Function(sp.W, name="state")
+        V = sp.space("velocity")
+        self.u_n = dolfinx.fem.Function(V, name="velocity")
+        self.u_nm1 = dolfinx.fem.Function(V)
+        self.u_hist = dolfinx.fem.Function(V)
+        self.p_n = dolfinx.fem.Function(sp.space("pressure"), name="pressure")
+        if self.model.micro_rotation:
+            S = sp.space("micro_rotation")
+            self.omega_n = dolfinx.fem.Function(S, name="micro_rotation")
+            self.omega_nm1 = dolfinx.fem.Function(S)
+            self.omega_hist = dolfinx.fem.Function(S)
+        self.chars = Characteristics(V, sp.space("micro_rotation") if self.model.micro_rotation else None, comm)
+
+        self._constants()
+        self._forms()
+        self._boundary_conditions()
+        self._A = None
+        self._alpha_of_A = None
+        self.ksp = self._make_solver()
+        self.b = compat.create_vector(self.L_form, sp.W)
+
+    # ------------------------------------------------------------------------------------- set-up
+    def _const(self, value):
+        return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
+
+    def _constants(self):
+        s = self.scene
+        self.alpha = self._const(1.0)
+        self.inv_dt = self._const(1.0 / self.dt)
+        self.rho = self._const(s.fluid.rho)
+        self.mu = self._const(s.fluid.mu)
+        self.f = dolfinx.fem.Constant(self.mesh, np.asarray(s.fluid.body_force, dtype=PETSc.ScalarType))
+        self.penalty = self._const(s.solver.penalty)
+        if self.model.micro_rotation:
+            m = s.micropolar
+            self.mu_r = self._const(m.mu_r)
+            self.lambda1 = self._const(m.lambda1)
+            self.inertia = self._const(m.inertia)
+            self.g = self._const(m.body_couple)
+
+    def _forms(self):
+        sp = self.space
+        trial, test = ufl.TrialFunctions(sp.W), ufl.TestFunctions(sp.W)
+        i_u, i_p = sp.index("velocity"), sp.index("pressure")
+        dx = ufl.dx(domain=self.mesh)
+        a, L = fluid.navier_stokes(trial[i_u], trial[i_p], test[i_u], test[i_p], rho=self.rho, mu=self.mu,
+                                   inv_dt=self.inv_dt, alpha=self.alpha, history=self.u_hist,
+                                   body_force=self.f, penalty=self.penalty, dx=dx)
+        if self.model.micro_rotation:
+            i_w = sp.index("micro_rotation")
+            a_m, L_m = fluid.micropolar(trial[i_u], trial[i_w], test[i_u], test[i_w], rho=self.rho,
+                                        mu_r=self.mu_r, lambda1=self.lambda1, inertia=self.inertia,
+                                        inv_dt=self.inv_dt, alpha=self.alpha, history=self.omega_hist,
+                                        body_couple=self.g, dx=dx)
+            a, L = a + a_m, L + L_m
+        self.a_form, self.L_form = compat.form(a), compat.form(L)
+
+    def _facets(self, *names):
+        ft = self.facet_tags
+        tags = [TAGS[n] for n in names]
+        return np.unique(ft.indices[np.isin(ft.values, tags)]).astype(np.int32)
+
+    def _boundary_conditions(self):
+        sp, mesh = self.space, self.mesh
+        fdim = mesh.topology.dim - 1
+        V = sp.space("velocity")
+        bcs = []
+        zero_u = dolfinx.fem.Function(V)
+        dofs = dolfinx.fem.locate_dofs_topological((sp.sub("velocity"), V), fdim, self._facets(*NO_SLIP))
+        bcs.append(dolfinx.fem.dirichletbc(zero_u, dofs, sp.sub("velocity")))
+        self.inflow = None
+        if self.scene.inflow is not None:
+            inflow = self.scene.inflow
+            height = self.comm.allreduce(mesh.geometry.x[:, 1].max(), op=MPI.MAX)
+            y0 = self.comm.allreduce(mesh.geometry.x[:, 1].min(), op=MPI.MIN)
+
+            def profile(x):
+                y = x[1] - y0
+                H = height - y0
+                ux = 6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic" \
+                    else np.full_like(y, inflow.u_mean)
+                return np.vstack([ux, np.zeros_like(ux)])
+
+            self.inflow = dolfinx.fem.Function(V)
+            self.inflow.interpolate(profile)
+            self._inflow_values = self.inflow.x.array.copy()
+            dofs = dolfinx.fem.locate_dofs_topological((sp.sub("velocity"), V), fdim, self._facets("inlet"))
+            bcs.append(dolfinx.fem.dirichletbc(self.inflow, dofs, sp.sub("velocity")))
+        if self.model.micro_rotation:
+            S = sp.space("micro_rotation")
+            zero_w = dolfinx.fem.Function(S)
+            dofs = dolfinx.fem.locate_dofs_topological((sp.sub("micro_rotation"), S), fdim,
+                                                       self._facets(*NO_SLIP))
+            bcs.append(dolfinx.fem.dirichletbc(zero_w, dofs, sp.sub("micro_rotation")))
+        self.bcs = bcs
+
+    def _make_solver(self):
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        opts = PETSc.Options()
+        prefix = f"cfsi_{id(self)}_"
+        ksp.setOptionsPrefix(prefix)
+        opts[f"{prefix}mat_mumps_icntl_7"] = MUMPS_ORDERING[self.scene.solver.mumps_ordering]
+        opts[f"{prefix}mat_mumps_icntl_14"] = 100  # workspace relaxation (%)
+        opts[f"{prefix}mat_mumps_icntl_24"] = 1  # null-pivot detection (pure-Dirichlet pressure)
+        ksp.setFromOptions()
+        return ksp
+
+    # --------------------------------------------------------------------------------- one step
+    def _matrix(self, alpha: float):
+        """Assemble (and have MUMPS factorise) the matrix only when α changed."""
+        if self._A is not None and self._alpha_of_A == alpha:
+            return
+        with self.timers("assemble_matrix"):
+            self.alpha.value = alpha
+            if self._A is None:
+                self._A = fem_petsc.assemble_matrix(self.a_form, bcs=self.bcs)
+            else:
+                self._A.zeroEntries()
+                fem_petsc.assemble_matrix(self._A, self.a_form, bcs=self.bcs)
+            self._A.assemble()
+            self.ksp.setOperators(self._A)
+            self._alpha_of_A = alpha
+
+    def _histories(self, alpha: float):
+        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet)."""
+        chars = self.chars
+        u_nodes = chars.nodal(self.u_n)
+        fns_n = [self.u_n] + ([self.omega_n] if self.model.micro_rotation else [])
+        if alpha == 1.0:
+            vals = chars.backtrack(u_nodes, self.dt, fns_n)
+            hist = vals
+        else:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
+            u_star = 2.0 * u_nodes - chars.nodal(self.u_nm1)
+            vals1 = chars.backtrack(u_star, self.dt, fns_n)
+            fns_nm1 = [self.u_nm1] + ([self.omega_nm1] if self.model.micro_rotation else [])
+            vals2 = chars.backtrack(u_star, 2.0 * self.dt, fns_nm1)
+            hist = [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
+        n = chars.n_nodes
+        self.u_hist.x.array[: n * 2] = hist[0].ravel()
+        self.u_hist.x.scatter_forward()
+        if self.model.micro_rotation:
+            self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
+            self.omega_hist.x.scatter_forward()
+
+    def advance(self):
+        """One time step t^n → t^{n+1}."""
+        alpha = 1.0 if (self.order == 1 or self.step_count == 0) else 1.5
+        self._matrix(alpha)
+        t_new = (self.step_count + 1) * self.dt
+        if self.inflow is not None:
+            self.inflow.x.array[:] = ramp(t_new, self.scene.inflow.ramp_time) * self._inflow_values
+        with self.timers("backtrack"):
+            self._histories(alpha)
+        with self.timers("assemble_vector"):
+            b = self.b
+            with b.localForm() as loc:
+                loc.set(0.0)
+            fem_petsc.assemble_vector(b, self.L_form)
+            fem_petsc.apply_lifting(b, [self.a_form], bcs=[self.bcs])
+            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            fem_petsc.set_bc(b, self.bcs)
+        with self.timers("solve"):
+            self.ksp.solve(b, compat.petsc_vec(self.w))
+            self.w.x.scatter_forward()
+        self._check_finite(t_new)
+        sp = self.space
+        self.u_nm1.x.array[:] = self.u_n.x.array
+        self.u_n.x.array[:] = self.w.x.array[sp.dofs("velocity")]
+        self.p_n.x.array[:] = self.w.x.array[sp.dofs("pressure")]
+        if self.model.micro_rotation:
+            self.omega_nm1.x.array[:] = self.omega_n.x.array
+            self.omega_n.x.array[:] = self.w.x.array[sp.dofs("micro_rotation")]
+        self.t = t_new
+        self.step_count += 1
+
+    def _check_finite(self, t):
+        bad = not np.isfinite(self.w.x.array).all()
+        reason = self.ksp.getConvergedReason()
+        if self.comm.allreduce(bad or reason < 0, op=MPI.LOR):
+            raise DivergenceError(f"step {self.step_count + 1} (t = {t:.6g}): non-finite solution "
+                                  f"(linear solver reason {reason}); try a smaller time.dt or a finer mesh")
+
+    # ----------------------------------------------------------------------------------- sizes
+    def num_dofs(self) -> dict:
+        out = {}
+        for name in self.space.names:
+            V = self.space.space(name)
+            out[name] = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
+        out["total"] = sum(out.values())
+        return out

@@ -1,0 +1,118 @@
+"""Shared pytest fixtures for both dolfinx stacks.
+
+``cosserat_fsi.compat`` is imported first: on the PyPI wheel stack it imports ``dolfinx_solver``
+before ``dolfinx``. Nothing heavy is imported here otherwise; mpi4py is imported lazily by the
+fixtures that need it.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+# Modules whose absence only means "this machine has no dolfinx stack": tests that do not need it
+# (config, CLI error messages) still run. Any other import error in compat is a bug and is raised.
+_OPTIONAL = ("cosserat_fsi.compat", "dolfinx", "dolfinx_solver", "petsc4py", "mpi4py", "basix", "ufl", "ffcx")
+try:
+    import cosserat_fsi.compat  # noqa: F401
+except ImportError as exc:  # ModuleNotFoundError included
+    if getattr(exc, "name", None) not in _OPTIONAL:
+        raise
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def repo_root() -> Path:
+    return REPO
+
+
+@pytest.fixture(scope="session")
+def mpi_comm():
+    """``MPI.COMM_WORLD`` (skips when mpi4py is missing)."""
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        pytest.skip("mpi4py not available")
+    return MPI.COMM_WORLD
+
+
+def _version_text(exe: str) -> str:
+    try:
+        out = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return out.stdout + out.stderr
+
+
+def _find_launcher() -> tuple[list[str] | None, str]:
+    """Command prefix (without ``-n N``) matching this interpreter's MPI library, or (None, why)."""
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        return None, "mpi4py not available"
+    lib = MPI.Get_library_version()
+    here = Path(sys.executable).parent  # the venv's bin/, not resolved through the symlink
+    if "Open MPI" in lib:
+        candidates = [here / "mpirun", shutil.which("mpirun"), "/usr/bin/mpirun"]
+        for exe in candidates:
+            if exe and os.access(exe, os.X_OK) and "Open MPI" in _version_text(str(exe)):
+                return [str(exe), "--allow-run-as-root", "--oversubscribe"], ""
+        return None, "no OpenMPI mpirun found for " + sys.executable
+    if "MPICH" in lib:
+        candidates = [here / "mpiexec", shutil.which("mpiexec")]
+        for exe in candidates:
+            if exe and os.access(exe, os.X_OK):
+                text = _version_text(str(exe))
+                if "HYDRA" in text or "MPICH" in text:
+                    return [str(exe)], ""
+        return None, "no MPICH mpiexec found next to " + sys.executable
+    return None, "unknown MPI library: " + lib.splitlines()[0]
+
+
+class _MpiRun:
+    """``mpirun(n)`` returns the command prefix that starts ``n`` ranks with this interpreter's MPI.
+
+    Start the subprocess with ``env=mpirun.env`` (or use ``mpirun.run``): once MPI is initialised in
+    the pytest process (importing dolfinx does it), OpenMPI has put PMIX_*/OMPI_MCA_* variables into
+    the C-level environment, which a plain ``subprocess.run`` passes on; a nested OpenMPI ``mpirun``
+    then exits 1 without a word (measured). ``mpirun.env`` is built from ``os.environ``, which does not
+    hold them.
+    """
+
+    def __init__(self, prefix: list[str]):
+        self.prefix = prefix
+
+    def __call__(self, n: int) -> list[str]:
+        return [*self.prefix, "-n", str(int(n))]
+
+    @property
+    def env(self) -> dict[str, str]:
+        drop = ("OMPI_COMM_WORLD", "OMPI_MCA_ess", "OMPI_MCA_orte", "PMIX_", "PMI_", "HYDRA_")
+        env = {k: v for k, v in os.environ.items() if not k.startswith(drop)}
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                   OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+        return env
+
+    def run(self, n: int, args: list[str], timeout: float = 600, **kwargs) -> subprocess.CompletedProcess:
+        """``subprocess.run(mpirun(n) + args)`` with the right environment, text output captured."""
+        kwargs.setdefault("capture_output", True)
+        kwargs.setdefault("text", True)
+        return subprocess.run([*self(n), *map(str, args)], env=self.env, timeout=timeout, **kwargs)
+
+
+@pytest.fixture(scope="session")
+def mpirun(mpi_comm) -> _MpiRun:
+    """Launcher for subprocess comparisons between 1 and N ranks; skips when none is found,
+    and inside a parallel pytest run (no nested mpirun)."""
+    if mpi_comm.size > 1:
+        pytest.skip("nested mpirun from a parallel pytest run")
+    prefix, why = _find_launcher()
+    if prefix is None:
+        pytest.skip(why)
+    return _MpiRun(prefix)

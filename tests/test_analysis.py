@@ -1,0 +1,89 @@
+"""Periodic analysis on synthetic signals (Turek-Hron convention: mean/amplitude from max/min)."""
+
+import numpy as np
+import pytest
+
+from cosserat_fsi.analysis import periodic_analysis, relative_error
+
+T = np.arange(0.0, 3.0 + 1e-12, 1e-3)
+W = 2 * np.pi * 4.4
+
+
+def test_sine():
+    r = periodic_analysis(T, 3 + 2 * np.sin(W * T))
+    assert r["mean"] == pytest.approx(3, abs=1e-3)
+    assert r["amplitude"] == pytest.approx(2, abs=1e-3)
+    assert r["frequency"] == pytest.approx(4.4, rel=1e-3)
+    assert r["frequency_fft"] == pytest.approx(4.4, rel=1e-3)
+    assert r["periods_used"] == 2 and r["method"] == "maxima"
+
+
+def test_decaying_transient_then_periodic():
+    y = 3 + 2 * np.sin(W * T) + 5 * np.exp(-T / 0.2) * (1 + np.sin(17 * T))
+    r = periodic_analysis(T, y, n_periods=3)
+    assert r["mean"] == pytest.approx(3, abs=1e-3)
+    assert r["amplitude"] == pytest.approx(2, abs=1e-3)
+    assert r["frequency"] == pytest.approx(4.4, rel=1e-3)
+    assert r["periods_used"] == 3
+
+
+def test_second_harmonic_keeps_fundamental():
+    """Lift-like: a strong second harmonic adds a shoulder, not an extra period."""
+    y = 1 + np.sin(W * T) + 0.4 * np.sin(2 * W * T + 0.3)
+    tail = y[T > 1]
+    r = periodic_analysis(T, y)
+    assert r["frequency"] == pytest.approx(4.4, rel=1e-3)
+    assert r["mean"] == pytest.approx((tail.max() + tail.min()) / 2, abs=1e-4)
+    assert r["amplitude"] == pytest.approx((tail.max() - tail.min()) / 2, abs=1e-4)
+
+
+def test_drag_like_at_twice_the_frequency():
+    """Drag oscillates at twice the lift frequency, with its own harmonic."""
+    y = 460 + 27 * np.sin(2 * W * T) + 3 * np.sin(4 * W * T + 0.5)
+    tail = y[T > 1]
+    r = periodic_analysis(T, y)
+    assert r["frequency"] == pytest.approx(8.8, rel=1e-3)
+    assert r["mean"] == pytest.approx((tail.max() + tail.min()) / 2, abs=1e-3)
+    assert r["amplitude"] == pytest.approx((tail.max() - tail.min()) / 2, abs=1e-3)
+    # a weak component at the lift frequency does not double the period
+    assert periodic_analysis(T, y + 1.0 * np.sin(W * T))["frequency"] == pytest.approx(8.8, rel=1e-3)
+
+
+def test_constant():
+    r = periodic_analysis(T, np.full_like(T, 7.0))
+    assert r["mean"] == 7.0 and r["amplitude"] == 0.0 and r["frequency"] is None
+
+
+def test_too_short_gives_none():
+    short = T < 0.4  # 1.76 periods
+    r = periodic_analysis(T[short], np.sin(W * T[short]))
+    assert r["mean"] is None and r["amplitude"] is None and r["frequency"] is None
+    assert periodic_analysis(T, np.exp(-T))["frequency"] is None  # monotone: no period at all
+
+
+def test_fft_fallback_on_drift():
+    """A drift larger than the oscillation leaves no clean maxima cycles: the FFT gives f."""
+    r = periodic_analysis(T, 5 * T + np.sin(W * T))
+    assert r["method"] == "fft"
+    assert r["frequency"] == pytest.approx(4.4, rel=1e-3)
+
+
+def test_nonuniform_sampling():
+    t = np.sort(np.random.default_rng(0).uniform(0, 3, 4000))
+    r = periodic_analysis(t, 3 + 2 * np.sin(W * t))
+    assert r["frequency"] == pytest.approx(4.4, rel=1e-3)
+    assert r["amplitude"] == pytest.approx(2, abs=1e-3)
+
+
+def test_bad_input():
+    with pytest.raises(ValueError):
+        periodic_analysis([0, 1], [0, 1])
+    with pytest.raises(ValueError):
+        periodic_analysis(T, T[:-1])
+
+
+def test_relative_error():
+    assert relative_error(101.0, 100.0) == pytest.approx(0.01)
+    assert relative_error(-99.0, -100.0) == pytest.approx(0.01)
+    with pytest.raises(ValueError):
+        relative_error(1.0, 0.0)

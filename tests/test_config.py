@@ -1,0 +1,151 @@
+"""Scene validation: example configs, one-line error messages naming the key, overrides, round trip."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cosserat_fsi.config import Scene, dump_resolved, load_scene, yaml_load
+from cosserat_fsi.errors import InputError
+
+REPO = Path(__file__).resolve().parents[1]
+CONFIGS = sorted((REPO / "configs").glob("*.yaml"))
+BASE = """\
+geometry: {name: turek_hron, level: 1, flag: rigid}
+fluid: {rho: 1000.0, mu: 1.0}
+inflow: {u_mean: 0.2}
+time: {dt: 0.01, t_end: 1.0}
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "config.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_there_are_example_configs():
+    assert len(CONFIGS) >= 5
+
+
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])
+def test_example_config_validates(path):
+    scene = load_scene(path)
+    assert scene.name == path.stem
+    assert path.read_text().startswith("#"), "every config starts with a header comment"
+
+
+# (text or None for BASE, overrides, expected message start)
+BAD = [
+    ("unknown_key", BASE.replace("mu: 1.0", "muu: 1.0"), [], "fluid.muu: unknown key (did you mean 'mu'?)"),
+    ("unknown_section", BASE + "fluidd: {}\n", [], "fluidd: unknown key (did you mean 'fluid'?)"),
+    ("string_for_float", BASE.replace("rho: 1000.0", "rho: '1000'"), [], "fluid.rho: must be a number"),
+    ("bool_for_float", None, ["fluid.mu=true"], "fluid.mu: must be a number"),
+    ("negative_rho", None, ["fluid.rho=-1"], "fluid.rho: must be > 0 (got -1)"),
+    ("dt_zero", None, ["time.dt=0"], "time.dt: must be > 0 (got 0)"),
+    ("dt_negative", None, ["time.dt=-0.1"], "time.dt: must be > 0 (got -0.1)"),
+    ("t_end_below_dt", None, ["time.t_end=0.001"], "time.t_end: must be >= time.dt"),
+    ("bad_geometry", None, ["geometry.name=foo"],
+     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square (got 'foo')"),
+    ("level_7", None, ["geometry.level=7"], "geometry.level: must be an integer 0..6 or 'seed' (got 7)"),
+    ("level_float", None, ["geometry.level=1.0"], "geometry.level: must be an integer"),
+    ("seed_on_channel", None, ["geometry.name=channel", "geometry.flag=null", "geometry.level=seed"],
+     "geometry.level: 'seed' only for geometry turek_hron"),
+    ("flag_on_channel", None, ["geometry.name=channel"], "geometry.flag: only for geometry turek_hron"),
+    ("bad_scheme", None, ["time.scheme=euler"], "time.scheme: must be one of characteristics1, characteristics2"),
+    ("bad_yaml", "fluid: {rho: 1,\ntime: [\n", [], "config.yaml: line 3: could not parse YAML"),
+    ("duplicate_key", BASE + "time: {dt: 1}\n", [], "config.yaml: line 5: could not parse YAML (duplicate key 'time')"),
+    ("top_level_list", "- 1\n- 2\n", [], "config.yaml: top level must be a mapping"),
+    ("empty_file", "", [], "config.yaml: top level must be a mapping"),
+    ("missing_section", BASE.replace("fluid: {rho: 1000.0, mu: 1.0}\n", ""), [], "fluid: missing section"),
+    ("missing_key", BASE.replace("rho: 1000.0, ", ""), [], "fluid.rho: missing key"),
+    ("set_without_value", None, ["time.dt"], "--set time.dt: expected dotted.key=value"),
+    ("set_unknown_key", None, ["time.dtt=1"], "time.dtt: unknown key (did you mean 'dt'?)"),
+    ("set_into_value", None, ["time.dt.x=1"], "time.dt: is a value, not a section"),
+    ("benchmark_geometry", None, ["benchmark=schaefer_turek_2d1"],
+     "benchmark: schaefer_turek_2d1 needs geometry.name schaefer_turek"),
+    ("benchmark_flag", None, ["benchmark=turek_hron_fsi3", "solid={rho: 1000, mu_s: 2e6}"],
+     "benchmark: turek_hron_fsi3 needs geometry.flag solid"),
+    ("unknown_benchmark", None, ["benchmark=cfd9"], "benchmark: must be one of"),
+    ("solid_flag_without_solid", None, ["geometry.flag=solid"], "solid: missing section"),
+    ("no_inflow", None, ["inflow=null"], "inflow: missing section"),
+    ("length_on_turek_hron", None, ["geometry.length=2"], "geometry.length: not used for geometry 'turek_hron'"),
+    ("body_force_length", None, ["fluid.body_force=[1]"], "fluid.body_force: must have 2 entries"),
+    ("body_force_item", None, ["fluid.body_force=[1, x]"], "fluid.body_force[1]: must be a number"),
+    ("every_zero", None, ["output.every=0"], "output.every: must be >= 1"),
+    ("bad_name", None, ["name=../x"], "name: must use only letters"),
+    ("two_errors", None, ["fluid.rho=-1", "time.dt=-1"], "fluid.rho: must be > 0 (got -1) (+1 more)"),
+]
+
+
+@pytest.mark.parametrize("text, overrides, expected", [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_bad_input_is_one_line_naming_the_key(tmp_path, text, overrides, expected):
+    path = write(tmp_path, BASE if text is None else text)
+    with pytest.raises(InputError) as info:
+        load_scene(path, overrides)
+    message = str(info.value).replace(str(tmp_path) + "/", "")
+    assert "\n" not in message
+    assert message.startswith(expected), message
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match=r"nothere\.yaml: file not found$"):
+        load_scene(tmp_path / "nothere.yaml")
+
+
+def test_python_tags_are_not_evaluated(tmp_path):
+    path = write(tmp_path, "name: !!python/object/apply:os.getcwd []\n" + BASE)
+    with pytest.raises(InputError, match="could not parse YAML"):
+        load_scene(path)
+
+
+def test_defaults_and_properties(tmp_path):
+    scene = load_scene(write(tmp_path, BASE, "my_case.yaml"))
+    assert scene.name == "my_case"
+    assert scene.micropolar.mu_r == 0.0 and scene.solver.penalty == 1e-10 and scene.output.every == 10
+    assert scene.inflow.profile == "parabolic" and scene.time.scheme == "characteristics1"
+    assert (scene.has_inflow, scene.has_solid, scene.has_micropolar) == (True, False, False)
+    channel = load_scene(write(tmp_path, "geometry: {name: channel}\nfluid: {rho: 1, mu: 1}\n"
+                                         "time: {dt: 0.1, t_end: 1}\n"))
+    assert (channel.geometry.length, channel.geometry.height, channel.geometry.flag) == (1.0, 1.0, None)
+    assert channel.geometry.msh_params() == {"length": 1.0, "height": 1.0}
+    assert not channel.has_inflow
+
+
+def test_overrides_applied_and_sections_created(tmp_path):
+    scene = load_scene(write(tmp_path, BASE), [
+        "time.dt=1e-3", "micropolar.mu_r=0.5", "geometry.flag=solid", "solid={rho: 1000, mu_s: 2.0E6}",
+        "benchmark=turek_hron_fsi3", "fluid.body_force=[0, -9.81]", "output.fields=false"])
+    assert scene.time.dt == 1e-3
+    assert scene.has_micropolar and scene.has_solid
+    assert scene.solid.mu_s == 2e6 and scene.fluid.body_force == [0.0, -9.81]
+    assert scene.output.fields is False
+    assert scene.geometry.msh_params() == {"flag": "solid"}
+
+
+def test_exponent_without_dot_is_a_float(tmp_path):
+    assert yaml_load("a: 1e-3\nb: 2E6\nc: +1.5e+2\nd: 1_000\ne: '1e-3'") == {
+        "a": 1e-3, "b": 2e6, "c": 150.0, "d": 1000, "e": "1e-3"}
+    scene = load_scene(write(tmp_path, BASE.replace("mu: 1.0", "mu: 1e-3")))
+    assert isinstance(scene.fluid.mu, float) and scene.fluid.mu == 1e-3
+
+
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])
+def test_resolved_config_round_trips(tmp_path, path):
+    scene = load_scene(path, ["micropolar.lambda1=1e-4"])
+    text = dump_resolved(scene)
+    again = load_scene(write(tmp_path, text, "other_name.yaml"))
+    assert again == scene
+    assert dump_resolved(again) == text == scene.to_yaml()
+    assert isinstance(again, Scene)
+
+
+def test_loading_a_scene_imports_no_heavy_modules(tmp_path):
+    code = ("import sys; from cosserat_fsi.config import load_scene; import cosserat_fsi.cli; "
+            f"load_scene({str(CONFIGS[0])!r}); "
+            "print(sorted(m for m in ('dolfinx', 'petsc4py', 'gmsh', 'mpi4py') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
