@@ -33,7 +33,7 @@ VENV_LATEST := .venv-latest
 PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest
 PYENV_ROOT ?= $(HOME)/.pyenv
 # A Python >= 3.12: pyenv's newest 3.12.x, else python3.12 on PATH. Override: make setup-latest PYTHON_LATEST=...
-PYTHON_LATEST ?= $(or $(lastword $(sort $(wildcard $(PYENV_ROOT)/versions/3.12*/bin/python3))),$(shell command -v python3.12 2>/dev/null))
+PYTHON_LATEST ?= $(or $(shell ls -d $(PYENV_ROOT)/versions/3.12*/bin/python3 2>/dev/null | sort -V | tail -n 1),$(shell command -v python3.12 2>/dev/null))
 MPIRUN_LATEST := $(VENV_LATEST)/bin/mpiexec
 
 # Stamps: a hash of the recipe line and of pyproject.toml.

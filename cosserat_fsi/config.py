@@ -123,11 +123,17 @@ class Geometry(_Section):
 
 
 class Fluid(_Section):
-    """Newtonian part of the fluid: density, dynamic viscosity, body force per unit mass."""
+    """Newtonian part of the fluid: density, dynamic viscosity, body force per unit volume (N/m³).
+
+    ``viscous_form``: ``laplacian`` (μ ∇u:∇ũ; its natural outflow condition is the benchmarks' do-nothing
+    μ ∂u/∂n − p n = 0) or ``symmetric`` (the seed's ½ μ Du:Dũ; natural condition (μ Du − p I) n = 0).
+    Both give the same equations inside the domain when div u = 0.
+    """
 
     rho: PositiveFloat
     mu: PositiveFloat
     body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    viscous_form: Literal["laplacian", "symmetric"] = "laplacian"
 
 
 class Micropolar(_Section):

@@ -8,7 +8,9 @@ right-hand side is ``alpha * rho / dt * h``. The caller passes ``alpha`` and ``h
 
 Viscous convention: the seed writes (μ + μ_r) Du:Dũ with Du = ∇u + ∇uᵀ (eq. 18). Its strong form (23) has
 (μ + μ_r)Δu, which the weak form only gives with a factor ½: ∫ μ Du:∇ũ = ½ ∫ μ Du:Dũ. We use the ½; the
-micropolar Poiseuille solution (tests) fixes it.
+Poiseuille solutions (tests) fix it. ``viscous_form="laplacian"`` uses (μ + μ_r) ∇u:∇ũ instead: the same
+equations inside the domain when div u = 0, but its natural outflow condition is the benchmarks'
+do-nothing condition μ ∂u/∂n − p n = 0, which Poiseuille flow satisfies.
 """
 
 import ufl
@@ -16,28 +18,37 @@ import ufl
 from .kinematics import D, curl_scalar, curl_vector
 
 
-def navier_stokes(u, p, v, q, *, rho, mu, inv_dt, alpha, history, body_force, penalty, dx):
+def viscous(u, v, viscosity, form: str):
+    """½ ν Du:Dũ (``symmetric``, seed) or ν ∇u:∇ũ (``laplacian``)."""
+    if form == "symmetric":
+        return 0.5 * viscosity * ufl.inner(D(u), D(v))
+    return viscosity * ufl.inner(ufl.grad(u), ufl.grad(v))
+
+
+def navier_stokes(u, p, v, q, *, rho, mu, inv_dt, alpha, history, body_force, penalty, dx,
+                  viscous_form="laplacian"):
     """Seed eq. (31) without solid and micro-rotation terms.
 
-    a = α ρ/δt (u, ũ) + μ/2 (Du, Dũ) − (p, div ũ) − (p̃, div u) − ζ (p, p̃),
+    a = α ρ/δt (u, ũ) + μ/2 (Du, Dũ) − (p, div ũ) − (p̃, div u) − ζ (p, p̃)   [or μ (∇u, ∇ũ)],
     L = ρ/δt (α h, ũ) + (f, ũ).
     """
     a = (alpha * rho * inv_dt * ufl.inner(u, v)
-         + 0.5 * mu * ufl.inner(D(u), D(v))
+         + viscous(u, v, mu, viscous_form)
          - p * ufl.div(v) - q * ufl.div(u) - penalty * p * q) * dx
     L = (rho * inv_dt * ufl.inner(history, v) + ufl.inner(body_force, v)) * dx
     return a, L
 
 
-def micropolar(u, omega, v, tau, *, rho, mu_r, lambda1, inertia, inv_dt, alpha, history, body_couple, dx):
+def micropolar(u, omega, v, tau, *, rho, mu_r, lambda1, inertia, inv_dt, alpha, history, body_couple, dx,
+               viscous_form="laplacian"):
     """Micropolar terms: the μ_r parts of seed eq. (31) and the micro-rotation equation (32), 2D.
 
-    a = μ_r/2 (Du, Dũ) − 2μ_r (curl ω, ũ)
+    a = μ_r/2 (Du, Dũ) [or μ_r (∇u, ∇ũ)] − 2μ_r (curl ω, ũ)
         + α ρ I/δt (ω, τ) + λ₁ (∇ω, ∇τ) + 4μ_r (ω, τ) − 2μ_r (curl u, τ),
     L = ρ I/δt (α h_ω, τ) + (g, τ).
     In 2D ω = ω e_z has zero divergence, so the λ₂ term of eq. (32) vanishes.
     """
-    a = (0.5 * mu_r * ufl.inner(D(u), D(v))
+    a = (viscous(u, v, mu_r, viscous_form)
          - 2 * mu_r * ufl.inner(curl_scalar(omega), v)
          + alpha * rho * inertia * inv_dt * omega * tau
          + lambda1 * ufl.inner(ufl.grad(omega), ufl.grad(tau))

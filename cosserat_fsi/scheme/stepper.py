@@ -29,7 +29,7 @@ SCHEMES = {"characteristics1": 1, "characteristics2": 2}
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 
-NO_SLIP = ("walls", "cylinder", "interface")
+NO_SLIP = ("walls", "cylinder", "interface")  # plus the lid of the square when it does not move
 TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6}
 
 
@@ -89,8 +89,11 @@ class Timers:
 class Stepper:
     """Monolithic velocity (× micro-rotation) × pressure system of one scene, advanced step by step."""
 
-    def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD):
-        self.scene, self.mesh, self.comm = scene, mesh, comm
+    def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD, exact=None):
+        """``exact``: optional exact solution (attributes ``velocity(x, t)`` and, with micro-rotation,
+        ``micro_rotation(x, t)``) giving the initial state and the Dirichlet data on every boundary but
+        the outlet; used by the verification tests."""
+        self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.model = Model.from_scene(scene)
         if self.model.solid:
             raise InputError("solid: the solid and the moving mesh are not implemented yet; "
@@ -119,6 +122,7 @@ class Stepper:
         self._constants()
         self._forms()
         self._boundary_conditions()
+        self.set_initial()
         self._A = None
         self._alpha_of_A = None
         self.ksp = self._make_solver()
@@ -150,13 +154,15 @@ class Stepper:
         dx = ufl.dx(domain=self.mesh)
         a, L = fluid.navier_stokes(trial[i_u], trial[i_p], test[i_u], test[i_p], rho=self.rho, mu=self.mu,
                                    inv_dt=self.inv_dt, alpha=self.alpha, history=self.u_hist,
-                                   body_force=self.f, penalty=self.penalty, dx=dx)
+                                   body_force=self.f, penalty=self.penalty, dx=dx,
+                                   viscous_form=self.scene.fluid.viscous_form)
         if self.model.micro_rotation:
             i_w = sp.index("micro_rotation")
             a_m, L_m = fluid.micropolar(trial[i_u], trial[i_w], test[i_u], test[i_w], rho=self.rho,
                                         mu_r=self.mu_r, lambda1=self.lambda1, inertia=self.inertia,
                                         inv_dt=self.inv_dt, alpha=self.alpha, history=self.omega_hist,
-                                        body_couple=self.g, dx=dx)
+                                        body_couple=self.g, dx=dx,
+                                        viscous_form=self.scene.fluid.viscous_form)
             a, L = a + a_m, L + L_m
         self.a_form, self.L_form = compat.form(a), compat.form(L)
 
@@ -166,38 +172,63 @@ class Stepper:
         return np.unique(ft.indices[np.isin(ft.values, tags)]).astype(np.int32)
 
     def _boundary_conditions(self):
+        """Dirichlet data: no-slip (and ω = 0) on walls, cylinder, flag; inflow profile × ramp at the inlet;
+        the lid of the square moves with ``inflow.u_mean``. With an exact solution, its values on every
+        tagged boundary but the outlet."""
         sp, mesh = self.space, self.mesh
         fdim = mesh.topology.dim - 1
         V = sp.space("velocity")
-        bcs = []
-        zero_u = dolfinx.fem.Function(V)
-        dofs = dolfinx.fem.locate_dofs_topological((sp.sub("velocity"), V), fdim, self._facets(*NO_SLIP))
-        bcs.append(dolfinx.fem.dirichletbc(zero_u, dofs, sp.sub("velocity")))
-        self.inflow = None
-        if self.scene.inflow is not None:
-            inflow = self.scene.inflow
-            height = self.comm.allreduce(mesh.geometry.x[:, 1].max(), op=MPI.MAX)
+        self._updates = []  # callables t -> None that refresh time-dependent boundary values
+        self.bcs = []
+
+        def add(space_name, facet_names, values=None, scale=None, exact=None):
+            Vs = sp.space(space_name)
+            g = dolfinx.fem.Function(Vs)
+            if values is not None:
+                g.interpolate(values)
+                if scale is not None:
+                    g0 = g.x.array.copy()
+                    self._updates.append(lambda t: g.x.array.__setitem__(slice(None), scale(t) * g0))
+            if exact is not None:
+                self._updates.append(lambda t: g.interpolate(lambda x: exact(x, t)))
+            dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim, self._facets(*facet_names))
+            self.bcs.append(dolfinx.fem.dirichletbc(g, dofs, sp.sub(space_name)))
+
+        if self.exact is not None:
+            boundary = [name for name in TAGS if name != "outlet"]
+            add("velocity", boundary, exact=self.exact.velocity)
+            if self.model.micro_rotation:
+                add("micro_rotation", boundary, exact=self.exact.micro_rotation)
+            return
+        inflow = self.scene.inflow
+        moving_lid = inflow is not None and self.scene.geometry.name == "square"
+        add("velocity", NO_SLIP + (() if moving_lid else ("lid",)))
+        if inflow is not None:
+            ramp_time = inflow.ramp_time
             y0 = self.comm.allreduce(mesh.geometry.x[:, 1].min(), op=MPI.MIN)
+            H = self.comm.allreduce(mesh.geometry.x[:, 1].max(), op=MPI.MAX) - y0
 
             def profile(x):
                 y = x[1] - y0
-                H = height - y0
-                ux = 6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic" \
-                    else np.full_like(y, inflow.u_mean)
+                ux = (6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic"
+                      else np.full_like(y, inflow.u_mean))
                 return np.vstack([ux, np.zeros_like(ux)])
 
-            self.inflow = dolfinx.fem.Function(V)
-            self.inflow.interpolate(profile)
-            self._inflow_values = self.inflow.x.array.copy()
-            dofs = dolfinx.fem.locate_dofs_topological((sp.sub("velocity"), V), fdim, self._facets("inlet"))
-            bcs.append(dolfinx.fem.dirichletbc(self.inflow, dofs, sp.sub("velocity")))
+            def lid(x):
+                return np.vstack([np.full_like(x[0], inflow.u_mean), np.zeros_like(x[0])])
+
+            add("velocity", ("lid",) if moving_lid else ("inlet",), values=lid if moving_lid else profile,
+                scale=lambda t: ramp(t, ramp_time))
         if self.model.micro_rotation:
-            S = sp.space("micro_rotation")
-            zero_w = dolfinx.fem.Function(S)
-            dofs = dolfinx.fem.locate_dofs_topological((sp.sub("micro_rotation"), S), fdim,
-                                                       self._facets(*NO_SLIP))
-            bcs.append(dolfinx.fem.dirichletbc(zero_w, dofs, sp.sub("micro_rotation")))
-        self.bcs = bcs
+            add("micro_rotation", NO_SLIP + ("lid",))
+
+    def set_initial(self):
+        """Initial state: rest, or the exact solution at t = 0."""
+        if self.exact is None:
+            return
+        self.u_n.interpolate(lambda x: self.exact.velocity(x, 0.0))
+        if self.model.micro_rotation:
+            self.omega_n.interpolate(lambda x: self.exact.micro_rotation(x, 0.0))
 
     def _make_solver(self):
         ksp = PETSc.KSP().create(self.comm)
@@ -256,8 +287,8 @@ class Stepper:
         alpha = 1.0 if (self.order == 1 or self.step_count == 0) else 1.5
         self._matrix(alpha)
         t_new = (self.step_count + 1) * self.dt
-        if self.inflow is not None:
-            self.inflow.x.array[:] = ramp(t_new, self.scene.inflow.ramp_time) * self._inflow_values
+        for update in self._updates:
+            update(t_new)
         with self.timers("backtrack"):
             self._histories(alpha)
         with self.timers("assemble_vector"):
