@@ -173,9 +173,10 @@ def compare_with_reference(scene, summary: dict) -> dict:
 
 
 def _error(value, reference):
+    """Signed relative error (value − reference)/|reference|."""
     if value is None or reference in (None, 0):
         return None
-    return relative_error(value, reference)
+    return relative_error(value, reference) * (1.0 if value >= reference else -1.0)
 
 
 def _json(obj):

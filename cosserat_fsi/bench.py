@@ -1,0 +1,106 @@
+"""Cost of one time step, per phase, on a given scene (benchmark script, not a test).
+
+    python -m cosserat_fsi.bench [--config configs/turek_hron_cfd3.yaml] [--set KEY=VALUE ...]
+                                 [--steps 200] [--json docs/perf/NAME.json]
+    mpirun -n 2 python -m cosserat_fsi.bench ...
+
+Reports, per step: backtracking, right-hand side assembly, the solve with the factorisation reused, and,
+for comparison, one fresh MUMPS factorisation + solve of the same matrix (the cost a solver that
+refactorises every step would pay). ``--json`` stores the figures; ``--report`` turns every stored
+JSON into the step-cost table of docs/performance.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def measure(config: str, overrides: list[str], steps: int) -> dict:
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from . import compat
+    from .config import load_scene
+    from .runner import load_mesh
+    from .scheme.stepper import Stepper
+
+    comm = MPI.COMM_WORLD
+    scene = load_scene(config, overrides)
+    t0 = time.perf_counter()
+    mesh, ct, ft, _ = load_mesh(scene, comm)
+    stepper = Stepper(scene, mesh, ct, ft, comm)
+    setup = time.perf_counter() - t0
+    stepper.advance()  # JIT, first factorisation
+    if stepper.order == 2:
+        stepper.advance()  # the BDF2 matrix
+    stepper.timers.totals.clear()
+    comm.Barrier()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        stepper.advance()
+    comm.Barrier()
+    per_step = (time.perf_counter() - t0) / steps
+    phases = {k: v / steps for k, v in stepper.timers.totals.items()}
+    # a fresh factorisation + solve of the same matrix: the refactorise-every-step floor
+    ksp = PETSc.KSP().create(comm)
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("mumps")
+    ksp.setOperators(stepper._A)
+    x = stepper._A.createVecRight()
+    comm.Barrier()
+    t0 = time.perf_counter()
+    ksp.solve(stepper.b, x)
+    comm.Barrier()
+    fresh = time.perf_counter() - t0
+    return {
+        "stack": f"dolfinx {compat.dolfinx.__version__}", "ranks": comm.size, "config": str(config),
+        "overrides": overrides, "scheme": scene.time.scheme, "dt": scene.time.dt,
+        "vertices": mesh.topology.index_map(0).size_global, "dofs": stepper.num_dofs()["total"],
+        "setup_s": setup, "per_step_s": per_step, "phases_s": phases, "fresh_factor_solve_s": fresh,
+    }
+
+
+def report(paths) -> str:
+    rows = ["| stack | ranks | scene | vertices | dofs | scheme | s/step | backtrack | rhs | solve (reused LU) | fresh LU + solve |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for path in sorted(paths):
+        r = json.loads(Path(path).read_text())
+        p = r["phases_s"]
+        scene = Path(r["config"]).stem + "".join(f" {o}" for o in r["overrides"])
+        rows.append(f"| {r['stack']} | {r['ranks']} | {scene} | {r['vertices']:,} | {r['dofs']:,} | {r['scheme']} | "
+                    f"{r['per_step_s']:.4f} | {p.get('backtrack', 0):.4f} | {p.get('assemble_vector', 0):.4f} | "
+                    f"{p.get('solve', 0):.4f} | {r['fresh_factor_solve_s']:.4f} |")
+    return "\n".join(rows)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.bench", description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default=str(ROOT / "configs/turek_hron_cfd3.yaml"))
+    parser.add_argument("--set", action="append", default=[])
+    parser.add_argument("--steps", type=int, default=200)
+    parser.add_argument("--json")
+    parser.add_argument("--report", nargs="*", help="JSON files to tabulate (markdown on stdout)")
+    args = parser.parse_args(argv)
+    if args.report is not None:
+        print(report(args.report))
+        return 0
+    result = measure(args.config, args.set, args.steps)
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        print(json.dumps(result, indent=2))
+        if args.json:
+            Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+            Path(args.json).write_text(json.dumps(result, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,225 @@
+"""`make validate`: run the benchmark ladder and write docs/validation.md (+ PNG plots).
+
+Each case is a config of configs/ plus `--set` overrides, run as its own `cosserat-fsi run` process
+(several at once with ``--jobs``). A finished case (its summary.json matches the resolved config) is not
+run again, so an interrupted validation resumes. Tolerances are the issue's acceptance criteria.
+
+    python -m cosserat_fsi.validate [--jobs 2] [--only PATTERN] [--out docs]
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass
+class Case:
+    id: str
+    config: str
+    overrides: dict = field(default_factory=dict)
+    # observable -> relative tolerance; periodic observables as "lift.amplitude"
+    tolerances: dict = field(default_factory=dict)
+    note: str = ""
+
+    def args(self) -> list[str]:
+        out = []
+        for key, value in self.overrides.items():
+            out += ["--set", f"{key}={value}"]
+        return out
+
+
+def _c(level, scheme, dt, t_end=None):
+    o = {"geometry.level": level, "time.scheme": scheme, "time.dt": dt}
+    if t_end is not None:
+        o["time.t_end"] = t_end
+    return o
+
+
+ST21 = {"c_D": 0.005, "c_L": 0.05, "dp": 0.01}
+CFD12 = {"drag": 0.01, "lift": 0.05}
+CFD3 = {"drag.mean": 0.01, "lift.amplitude": 0.05, "lift.frequency": 0.02}
+
+CASES = [
+    Case("st2d1-L1-c2-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(1, "characteristics2", 0.01, 20), ST21),
+    Case("st2d1-L2-c2-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(2, "characteristics2", 0.01, 20), ST21),
+    Case("st2d1-L2-c1-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(2, "characteristics1", 0.01, 20), ST21),
+    Case("st2d1-L3-c2-dt0.02", "configs/schaefer_turek_2d1.yaml", _c(3, "characteristics2", 0.02, 20), ST21),
+    Case("cfd1-L1-c2-dt0.02", "configs/turek_hron_cfd1.yaml", _c(1, "characteristics2", 0.02, 25), CFD12),
+    Case("cfd1-L2-c2-dt0.02", "configs/turek_hron_cfd1.yaml", _c(2, "characteristics2", 0.02, 25), CFD12),
+    Case("cfd2-L1-c2-dt0.01", "configs/turek_hron_cfd2.yaml", _c(1, "characteristics2", 0.01, 15), CFD12),
+    Case("cfd2-L2-c2-dt0.01", "configs/turek_hron_cfd2.yaml", _c(2, "characteristics2", 0.01, 15), CFD12),
+    Case("cfd3-seed-c1-dt0.005", "configs/turek_hron_cfd3.yaml", _c("seed", "characteristics1", 0.005, 8), CFD3,
+         "the seed's settings (≈ 2,100 vertices, first order, δt = 0.005)"),
+    Case("cfd3-seed-c1-dt0.001", "configs/turek_hron_cfd3.yaml", _c("seed", "characteristics1", 0.001, 8), CFD3),
+    Case("cfd3-seed-c2-dt0.005", "configs/turek_hron_cfd3.yaml", _c("seed", "characteristics2", 0.005, 8), CFD3),
+    Case("cfd3-L1-c2-dt0.0025", "configs/turek_hron_cfd3.yaml", _c(1, "characteristics2", 0.0025, 8), CFD3),
+    Case("cfd3-L2-c2-dt0.0025", "configs/turek_hron_cfd3.yaml", _c(2, "characteristics2", 0.0025, 8), CFD3),
+]
+
+
+def run_case(case: Case, runs: Path, python: str) -> Path:
+    """Run one case (unless it already finished) and return its output folder."""
+    out = runs / case.id
+    summary = out / "summary.json"
+    if summary.exists() and json.loads(summary.read_text()).get("status") == "completed":
+        return out
+    out.mkdir(parents=True, exist_ok=True)
+    cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / case.config), "--out", str(out),
+           "--no-progress", "--set", "output.fields=false", *case.args()]
+    with open(out / "stdout.log", "w") as log:
+        subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
+    return out
+
+
+def measured(summary: dict, key: str):
+    """The value of ``key`` ("c_D", "drag", "lift.amplitude", …) in a run's benchmark comparison."""
+    bench = summary.get("benchmark", {})
+    name, _, part = key.partition(".")
+    entry = bench.get(name)
+    if entry is None:
+        return None
+    return entry.get(part) if part else entry
+
+
+def table(cases, runs: Path) -> list[str]:
+    rows = ["| case | mesh (vertices) | scheme | δt | observable | value | reference | error | tolerance | ok | wall (s) | s/step |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for case in cases:
+        path = runs / case.id / "summary.json"
+        if not path.exists():
+            rows.append(f"| {case.id} | – | – | – | not run | | | | | | | |")
+            continue
+        s = json.loads(path.read_text())
+        mesh = f"L{s['mesh']['level']} ({s['mesh']['vertices']:,})"
+        scheme = "BDF2" if s["time"]["scheme"] == "characteristics2" else "1st order"
+        status = "" if s["status"] == "completed" else f" ({s['status']})"
+        for key, tol in case.tolerances.items():
+            m = measured(s, key)
+            if not m or m.get("value") is None:
+                rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {s['time']['dt']} | {key} | – | | | "
+                            f"{tol:.1%} | no | {s['wall_time']['total']:.0f} | {s['wall_time']['per_step']:.3f} |")
+                continue
+            err = (m["value"] - m["reference"]) / abs(m["reference"]) if m["reference"] else None
+            ok = err is not None and abs(err) <= tol
+            rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {s['time']['dt']} | {key} | {m['value']:.6g} | "
+                        f"{m['reference']:.6g} | {'–' if err is None else format(err, '+.2%')} | {tol:.1%} | {'yes' if ok else 'no'} | "
+                        f"{s['wall_time']['total']:.0f} | {s['wall_time']['per_step']:.3f} |")
+    return rows
+
+
+def cheapest(cases, runs: Path) -> list[str]:
+    """Per benchmark, the cheapest case (wall time) that meets every tolerance."""
+    best = {}
+    for case in cases:
+        path = runs / case.id / "summary.json"
+        if not path.exists():
+            continue
+        s = json.loads(path.read_text())
+        ok = s["status"] == "completed" and all(
+            (m := measured(s, key)) and m.get("error") is not None and abs(m["error"]) <= tol
+            for key, tol in case.tolerances.items())
+        group = case.id.split("-")[0]
+        best.setdefault(group, None)
+        if ok and (best[group] is None or s["wall_time"]["total"] < best[group][1]):
+            best[group] = (case.id, s["wall_time"]["total"])
+    return [f"- {group}: " + (f"`{b[0]}` ({b[1]:.0f} s)" if b else "no case meets every tolerance yet")
+            for group, b in best.items()]
+
+
+def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .io import read_timeseries
+    from .references import reference_for
+
+    ref = reference_for("turek_hron_cfd3")["lift"]
+    fig, ax = plt.subplots(figsize=(9, 4))
+    drawn = False
+    for case in cases:
+        csv = runs / case.id / "timeseries.csv"
+        if case.id.startswith("cfd3") and csv.exists():
+            ts = read_timeseries(csv)
+            keep = ts["t"] >= ts["t"][-1] - 1.0
+            ax.plot(ts["t"][keep], ts["lift"][keep], label=case.id, lw=1)
+            drawn = True
+    if not drawn:
+        plt.close(fig)
+        return None
+    lo, hi = ref["mean"] - ref["amplitude"], ref["mean"] + ref["amplitude"]
+    ax.axhspan(lo, hi, color="0.85", zorder=0, label="Turek–Hron CFD3 lift range")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("lift (N)")
+    ax.legend(fontsize=7, loc="upper right")
+    ax.set_title("CFD3: lift over the last simulated second")
+    fig.tight_layout()
+    path = out / "figures" / "cfd3_lift.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return str(path.relative_to(out))
+
+
+def write_report(cases, runs: Path, out: Path) -> Path:
+    figure = plot_cfd3(cases, runs, out)
+    lines = [
+        "# Validation",
+        "",
+        "Written by `make validate` (`python -m cosserat_fsi.validate`): every number below is measured, on",
+        "the Debian stack (dolfinx 0.5.2), serial, on a 2-core machine (two cases run at a time).",
+        "References: shared/reference/benchmarks.yaml (Schäfer & Turek 1996; Turek & Hron 2006).",
+        "Errors are relative; for periodic observables, mean / amplitude are (max ± min)/2 over the last",
+        "full period and the frequency comes from the last periods (cosserat_fsi/analysis.py).",
+        "drag and lift are the variational (residual) forces; `drag_surface` in timeseries.csv is ∫ T n.",
+        "",
+        *table(cases, runs),
+        "",
+        "Cheapest case meeting every tolerance of its benchmark:",
+        "",
+        *cheapest(cases, runs),
+        "",
+    ]
+    for case in cases:
+        if case.note:
+            lines.append(f"- `{case.id}`: {case.note}")
+    if figure:
+        lines += ["", f"![CFD3 lift]({figure})", ""]
+    path = out / "validation.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.validate", description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--only", default="*", help="glob over case ids")
+    parser.add_argument("--out", default=str(ROOT / "docs"))
+    parser.add_argument("--report-only", action="store_true")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    runs = out / "runs"
+    cases = [c for c in CASES if fnmatch.fnmatch(c.id, args.only)]
+    if not args.report_only:
+        env_python = sys.executable
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            for done in pool.map(lambda c: run_case(c, runs, env_python), cases):
+                print(f"finished {done.name}", flush=True)
+    print(write_report(CASES, runs, out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

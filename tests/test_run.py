@@ -1,0 +1,61 @@
+"""The `cosserat-fsi run` contract: files, columns, summary, exit codes (0 done, 3 diverged)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from cosserat_fsi.config import load_scene
+from cosserat_fsi.io import read_timeseries
+
+
+def _run(repo_root, tmp_path, *sets):
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "cosserat_fsi.cli", "run", str(repo_root / "configs/schaefer_turek_2d1.yaml"),
+           "--out", str(out), "--no-progress", "--set", "geometry.level=0"]
+    for s in sets:
+        cmd += ["--set", s]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    return proc, out
+
+
+def test_run_writes_the_contract_files(repo_root, tmp_path):
+    proc, out = _run(repo_root, tmp_path, "time.dt=0.05", "time.t_end=0.5", "output.every=5")
+    assert proc.returncode == 0, proc.stderr
+    # config.yaml is the fully resolved scene and loads back to the same scene
+    resolved = load_scene(out / "config.yaml")
+    assert resolved.time.t_end == 0.5 and resolved.geometry.level == 0 and resolved.solver.penalty >= 0
+    # timeseries.csv: t first, then the observables, one row per step, times = k δt
+    ts = read_timeseries(out / "timeseries.csv")
+    assert list(ts)[:4] == ["t", "drag", "lift", "drag_surface"] and "dp" in ts
+    np.testing.assert_allclose(ts["t"], 0.05 * np.arange(1, 11), rtol=1e-12)
+    assert np.all(ts["drag"] > 0)
+    # summary.json: versions, dofs, steps, timings, comparison with the reference
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "completed" and s["time"]["steps"] == 10
+    assert s["dofs"]["total"] == s["dofs"]["velocity"] + s["dofs"]["pressure"]
+    assert "micro_rotation" not in s["dofs"]  # no micropolar terms in this scene: no ω field
+    assert {"dolfinx", "petsc", "mpi"} <= set(s["versions"])
+    assert {"backtrack", "assemble_vector", "solve"} <= set(s["wall_time"]["phases"])
+    assert s["benchmark"]["c_D"]["reference"] == pytest.approx(5.57953523384)
+    # fields.xdmf: t = 0 and every 5th step, each with its own geometry and the fields
+    grids = ET.parse(out / "fields.xdmf").getroot().iter("Grid")
+    times = [float(g.find("Time").get("Value")) for g in grids if g.find("Time") is not None]
+    np.testing.assert_allclose(times, [0.0, 0.25, 0.5], atol=1e-12)
+    assert (out / "fields.h5").stat().st_size > 0 and (out / "run.log").read_text().count("model:") == 1
+
+
+def test_diverging_run_exits_3_and_keeps_output(repo_root, tmp_path):
+    """A body force of 1e308 N/m³ overflows the first solve: exit 3, one line, files kept."""
+    proc, out = _run(repo_root, tmp_path, "time.dt=0.05", "time.t_end=0.5", "fluid.body_force=[1.0e308, 1.0e308]")
+    assert proc.returncode == 3, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("diverged:")]
+    assert len(lines) == 1 and "t = 0.05" in lines[0] and "Traceback" not in proc.stderr
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "diverged" and "non-finite" in s["message"]
+    assert (out / "timeseries.csv").read_text().startswith("t,") and (out / "config.yaml").exists()
