@@ -7,6 +7,8 @@ The measured table of differences is in shared/reference/dolfinx_stacks.md.
 
 from __future__ import annotations
 
+import logging
+
 try:  # the PyPI wheel must be bootstrapped before dolfinx is imported
     import dolfinx_solver  # noqa: F401
 except ImportError:
@@ -24,6 +26,11 @@ from petsc4py import PETSc
 DOLFINX_VERSION = tuple(int(v) for v in dolfinx.__version__.split(".")[:2])
 NEW = DOLFINX_VERSION >= (0, 8)
 """True on the wheel stack (dolfinx 0.11); False on Debian's 0.5.2."""
+
+# ffcx 0.5 calls logging.basicConfig() on import, which makes the JIT compiler's INFO lines appear on
+# stderr: keep that root handler for warnings only.
+for _handler in logging.getLogger().handlers:
+    _handler.setLevel(logging.WARNING)
 
 if NEW:
     import basix.ufl

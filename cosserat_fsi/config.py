@@ -25,8 +25,8 @@ GEOMETRY_OF_BENCHMARK = {
     "turek_hron_cfd1": ("turek_hron", "rigid"),
     "turek_hron_cfd2": ("turek_hron", "rigid"),
     "turek_hron_cfd3": ("turek_hron", "rigid"),
-    "turek_hron_csm1": ("turek_hron", "solid"),
-    "turek_hron_csm2": ("turek_hron", "solid"),
+    "turek_hron_csm1": ("flag", None),
+    "turek_hron_csm2": ("flag", None),
     "turek_hron_fsi1": ("turek_hron", "solid"),
     "turek_hron_fsi2": ("turek_hron", "solid"),
     "turek_hron_fsi3": ("turek_hron", "solid"),
@@ -89,10 +89,15 @@ PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
 
 
-class Geometry(_Section):
-    """Domain and mesh. ``length``/``height`` only for channel (defaults 1.0) and square (side ``length``)."""
+SOLID_GEOMETRIES = ("flag", "box")
+"""Geometries whose mesh has solid cells (besides turek_hron with flag: solid); flag has no fluid."""
 
-    name: Literal["turek_hron", "schaefer_turek", "channel", "square"]
+
+class Geometry(_Section):
+    """Domain and mesh. ``length``/``height``: channel (defaults 1.0), square (side ``length``) and flag
+    (``length`` 0.35, thickness ``height`` 0.02; a solid-only scene)."""
+
+    name: Literal["turek_hron", "schaefer_turek", "channel", "square", "flag", "box"]
     level: int | Literal["seed"] = 0
     flag: Literal["solid", "rigid"] | None = None
     length: PositiveFloat | None = None
@@ -117,9 +122,10 @@ class Geometry(_Section):
 
     def msh_params(self) -> dict:
         """The ``params`` argument of ``geometry.build_msh`` for this geometry."""
+        flag = {k: v for k, v in (("length", self.length), ("thickness", self.height)) if v is not None}
         return {"turek_hron": {"flag": self.flag}, "schaefer_turek": {},
                 "channel": {"length": self.length, "height": self.height},
-                "square": {"size": self.length}}[self.name]
+                "square": {"size": self.length}, "flag": flag, "box": {}}[self.name]
 
 
 class Fluid(_Section):
@@ -148,12 +154,20 @@ class Micropolar(_Section):
 
 
 class Solid(_Section):
-    """Elastic body (Turek-Hron flag): density, shear modulus, second Mooney-Rivlin constant, gravity."""
+    """Incompressible Mooney–Rivlin body (seed eqs. 6–14).
+
+    ``mu_s``: shear modulus (Pa); Cauchy stress −pI + μ_s (Dd − ∇d∇dᵀ), i.e. the seed's 2c₁ = μ_s
+    (seed c₁ = 10⁶ ↔ mu_s = 2·10⁶, the Turek–Hron FSI3 value). ``c2``: the second Mooney–Rivlin constant;
+    in 2D with det F = 1 it only shifts the pressure (seed eq. 14), so it does not change the motion.
+    ``gravity``: acceleration (m/s²) in −y on the solid. ``initial_velocity``: uniform initial velocity
+    of the solid (m/s), e.g. to start a free vibration.
+    """
 
     rho: PositiveFloat
     mu_s: PositiveFloat
     c2: NonNegFloat = 0.0
     gravity: float = 0.0
+    initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
 
 
 class Inflow(_Section):
@@ -193,7 +207,7 @@ class Scene(_Section):
     name: str = "scene"
     benchmark: Benchmark | None = None
     geometry: Geometry
-    fluid: Fluid
+    fluid: Fluid | None = None
     micropolar: Micropolar = Field(default_factory=Micropolar)
     solid: Solid | None = None
     inflow: Inflow | None = None
@@ -220,8 +234,15 @@ class Scene(_Section):
             raise ValueError(f"geometry.level: 'seed' only for geometry turek_hron (got {geo.name!r})")
         for key in ("length", "height"):
             if getattr(geo, key) is not None and (geo.name, key) not in (
-                    ("channel", "length"), ("channel", "height"), ("square", "length")):
+                    ("channel", "length"), ("channel", "height"), ("square", "length"),
+                    ("flag", "length"), ("flag", "height")):
                 raise ValueError(f"geometry.{key}: not used for geometry {geo.name!r}")
+        if self.fluid is None and geo.name != "flag":
+            raise ValueError(f"fluid: missing section (required for geometry {geo.name})")
+        if self.fluid is not None and geo.name == "flag":
+            raise ValueError("fluid: not used for geometry flag (a solid-only scene)")
+        if geo.name in SOLID_GEOMETRIES and self.solid is None:
+            raise ValueError(f"solid: missing section (required for geometry {geo.name})")
         if self.benchmark is not None:
             need_name, need_flag = GEOMETRY_OF_BENCHMARK[self.benchmark]
             if geo.name != need_name:
@@ -245,9 +266,14 @@ class Scene(_Section):
 
     @property
     def has_solid(self) -> bool:
-        """True if the mesh has solid cells (Turek-Hron with a solid flag) and a solid section."""
-        return self.solid is not None and self.geometry.name == "turek_hron" \
-            and self.geometry.flag == "solid"
+        """True if the mesh has solid cells (Turek–Hron with a solid flag, flag, box) and a solid section."""
+        geo = self.geometry
+        return self.solid is not None and (geo.flag == "solid" or geo.name in SOLID_GEOMETRIES)
+
+    @property
+    def has_fluid(self) -> bool:
+        """False for solid-only scenes (geometry flag): no fluid terms are built."""
+        return self.fluid is not None
 
     @property
     def has_inflow(self) -> bool:

@@ -12,7 +12,8 @@ from mpi4py import MPI
 from . import compat
 from .physics.stress import body_traction, cauchy_stress
 from .scheme.characteristics import probe
-from .scheme.stepper import TAGS
+from .physics.solid import elastic_energy_density
+from .scheme.stepper import FLUID, SOLID, TAGS
 
 import dolfinx
 import ufl
@@ -20,6 +21,7 @@ import ufl
 # Schäfer–Turek pressure probes: front and back of the cylinder (shared/reference/benchmarks.yaml)
 DP_POINTS = np.array([[0.15, 0.2, 0.0], [0.25, 0.2, 0.0]])
 BODY = ("cylinder", "interface")
+POINT_A = {"turek_hron": (0.6, 0.2), "flag": None}  # flag: (length, thickness/2), from the mesh
 
 
 class Observables:
@@ -43,13 +45,20 @@ class Observables:
                           if self.comm.allreduce(int(np.any(ft.values == TAGS[b])), op=MPI.MAX))
         self.columns = []
         self._force_forms = None
-        if body_tags:
-            residual = _momentum_residual(stepper, u, T)
-            self._force_forms = [compat.form(-residual(phi)) for phi in _body_test_functions(stepper, body_tags)]
-            traction = body_traction(T, n)
-            ds_body = ds(body_tags)
-            self._force_forms += [compat.form(traction[i] * ds_body) for i in range(2)]
+        if body_tags and scene.has_fluid:
+            self._force_forms = _force_forms(stepper, u, T, n, ds, body_tags)
             self.columns += ["drag", "lift", "drag_surface", "lift_surface"]
+        self._node_A = None
+        if stepper.model.solid and scene.geometry.name in POINT_A:
+            self._node_A = _owned_node(stepper, _point_A(stepper))
+            self.columns += ["ux_A", "uy_A"]
+        self._energy_forms = None
+        if stepper.model.solid:
+            dx = ufl.dx(domain=mesh, subdomain_data=stepper.cell_tags)
+            kinetic = 0.5 * stepper.rho * ufl.inner(u, u) * dx
+            elastic = elastic_energy_density(stepper.d_n, stepper.mu_s) * dx(SOLID)
+            self._energy_forms = [compat.form(kinetic), compat.form(elastic)]
+            self.columns += ["energy_kinetic", "energy_elastic", "energy_total"]
         self._dp = scene.geometry.name == "schaefer_turek"
         if self._dp:
             self.columns.append("dp")
@@ -61,6 +70,14 @@ class Observables:
         if self._force_forms is not None:
             forces = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._force_forms]
             out.update(zip(("drag", "lift", "drag_surface", "lift_surface"), forces))
+        if self._node_A is not None:
+            d = self.stepper.d_n.x.array.reshape(-1, 2)
+            local = d[self._node_A] if self._node_A >= 0 else np.zeros(2)
+            out["ux_A"], out["uy_A"] = self.comm.allreduce(local, op=MPI.SUM)
+        if self._energy_forms is not None:
+            kinetic, elastic = (self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM)
+                                for f in self._energy_forms)
+            out.update(energy_kinetic=kinetic, energy_elastic=elastic, energy_total=kinetic + elastic)
         if self._dp:
             st = self.stepper
             p = probe(st.chars.locator, [st.p_n], DP_POINTS, self.comm)[0][:, 0]
@@ -69,6 +86,50 @@ class Observables:
             local = np.abs(self.stepper.omega_n.x.array).max(initial=0.0)
             out["omega_max"] = self.comm.allreduce(local, op=MPI.MAX)
         return out
+
+
+def _point_A(stepper):
+    """Point A: the flag's tip (0.6, 0.2) for Turek–Hron; (length, thickness/2) for the flag alone."""
+    if stepper.scene.geometry.name == "turek_hron":
+        return np.array(POINT_A["turek_hron"])
+    x = stepper.mesh.geometry.x
+    xmax = stepper.comm.allreduce(x[:, 0].max(), op=MPI.MAX)
+    ymax = stepper.comm.allreduce(x[:, 1].max(), op=MPI.MAX)
+    return np.array([xmax, 0.5 * ymax])
+
+
+def _owned_node(stepper, point):
+    """Local index of the owned velocity node at ``point`` (a mesh vertex), or −1 on other ranks."""
+    V = stepper.u_n.function_space
+    n_owned = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n_owned, :2]
+    dist = np.linalg.norm(x - point, axis=1) if n_owned else np.array([np.inf])
+    i = int(np.argmin(dist))
+    found = bool(dist[i] < 1e-10)
+    if stepper.comm.allreduce(int(found), op=MPI.SUM) != 1:
+        raise RuntimeError(f"point A {tuple(point)} is not a vertex of the mesh")
+    return i if found else -1
+
+
+def _force_forms(stepper, u, T, n, ds, body_tags):
+    """Forms for (drag, lift) by the residual method and by the surface integral of −T n, fluid side.
+
+    With a solid flag the fluid–solid interface is interior: its traction is taken from the fluid cell
+    (χ_f = 1 on fluid cells), and the cylinder arc that clamps the flag is left out the same way.
+    """
+    phis = _body_test_functions(stepper, body_tags)
+    traction = body_traction(T, n)
+    if not stepper.model.solid:
+        residual = _momentum_residual(stepper, u, T, ufl.dx(domain=stepper.mesh))
+        surface = [traction[i] * ds(body_tags) for i in range(2)]
+    else:
+        chi = stepper._cellwise(1.0, 0.0)  # fluid indicator
+        dx_fluid = ufl.dx(domain=stepper.mesh, subdomain_data=stepper.cell_tags)(FLUID)
+        residual = _momentum_residual(stepper, u, T, dx_fluid)
+        dS = ufl.Measure("dS", domain=stepper.mesh, subdomain_data=stepper.facet_tags)(TAGS["interface"])
+        surface = [chi * traction[i] * ds(TAGS["cylinder"])
+                   + (chi("+") * traction[i]("+") + chi("-") * traction[i]("-")) * dS for i in range(2)]
+    return [compat.form(-residual(phi)) for phi in phis] + [compat.form(f) for f in surface]
 
 
 def _body_test_functions(stepper, body_tags):
@@ -86,7 +147,7 @@ def _body_test_functions(stepper, body_tags):
     return phis
 
 
-def _momentum_residual(stepper, u, T):
+def _momentum_residual(stepper, u, T, dx):
     """φ ↦ ∫ ρ (α u^{n+1} − α h)/δt·φ + T:∇φ − f·φ dx: the momentum residual of the step just taken.
 
     With φ = e_i on the body and 0 elsewhere it equals ∫_body T n·e_i ds (n out of the fluid), so
@@ -94,7 +155,6 @@ def _momentum_residual(stepper, u, T):
     faster than the surface integral of T n.
     """
     rho, inv_dt, alpha = stepper.rho, stepper.inv_dt, stepper.alpha
-    dx = ufl.dx(domain=stepper.mesh)
 
     def residual(phi):
         return (rho * inv_dt * ufl.inner(alpha * u - stepper.u_hist, phi)

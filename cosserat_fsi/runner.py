@@ -63,10 +63,12 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True) 
     try:
         if fields is not None:
             _write_fields(fields, stepper)
-        for k in range(n_steps):
-            stepper.advance()
+        def observe():  # after the solve, on the mesh the step was solved on
             with stepper.timers("observables"):
                 series.write(stepper.t, observables.evaluate())
+
+        for k in range(n_steps):
+            stepper.advance(before_move=observe)
             if fields is not None and (k + 1) % every == 0:
                 with stepper.timers("output"):
                     _write_fields(fields, stepper)
@@ -99,6 +101,8 @@ def _write_fields(fields, stepper):
     point = {"velocity": stepper.u_n, "pressure": stepper.p_n}
     if stepper.model.micro_rotation:
         point["micro_rotation"] = stepper.omega_n
+    if stepper.model.solid:
+        point["displacement"] = stepper.d_n
     cells = None
     if stepper.cell_tags is not None:
         n_owned = compat.num_owned_cells(stepper.mesh)

@@ -16,7 +16,8 @@ FLAG_AREA = (0.6 - X0) * 2 * A_HALF - R**2 * math.asin(A_HALF / R) + A_HALF * ma
 ARC = 2 * R * math.asin(A_HALF / R)  # clamped arc of the circle
 INTERFACE = 2 * (0.6 - X0) + 2 * A_HALF
 # measures integrated by _measures, in this order
-NAMES = ("fluid", "solid", "inlet", "outlet", "walls", "cylinder", "interface", "lid", "boundary", "interior5")
+NAMES = ("fluid", "solid", "inlet", "outlet", "walls", "cylinder", "interface", "lid", "clamp", "boundary",
+         "interior5")
 
 
 def _measures(path):
@@ -31,7 +32,7 @@ def _measures(path):
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=facets)
     dS = ufl.Measure("dS", domain=mesh, subdomain_data=facets)
     c = dolfinx.fem.Constant(mesh, np.zeros(len(NAMES)))
-    parts = [dx(1), dx(2), ds(1), ds(2), ds(3), ds(4), ds(5), ds(6), ds, dS(5)]
+    parts = [dx(1), dx(2), ds(1), ds(2), ds(3), ds(4), ds(5), ds(6), ds(7), ds, dS(5)]
     form = compat.form(sum((c[i] * m for i, m in enumerate(parts[1:], 1)), c[0] * parts[0]))
     out = {}
     for i, name in enumerate(NAMES):
@@ -81,6 +82,41 @@ def test_channel_and_square_measures(tmp_path):
     assert (m["fluid"], m["walls"], m["lid"], m["inlet"]) == pytest.approx((4.0, 6.0, 2.0, 0.0), abs=1e-12)
 
 
+@pytest.mark.parametrize("level,params", [(0, None), (1, None), (1, {"length": 1.0, "thickness": 0.1})])
+def test_flag_measures(tmp_path, level, params):
+    length, thickness = (params or {}).get("length", 0.35), (params or {}).get("thickness", 0.02)
+    m = _measures(geometry.build_msh("flag", level, params, tmp_path))
+    assert (m["solid"], m["fluid"]) == (pytest.approx(length * thickness, rel=1e-12), 0)
+    assert m["clamp"] == pytest.approx(thickness, rel=1e-12)
+    assert m["interface"] == pytest.approx(2 * length + thickness, rel=1e-12) and m["interior5"] == 0
+    assert m["boundary"] == pytest.approx(m["clamp"] + m["interface"], rel=1e-12)
+    assert sum(m[k] for k in ("inlet", "outlet", "walls", "cylinder", "lid")) == 0
+    ny = 4 * 2**level
+    assert m["vertices"] == (round(4 * length / thickness) * ny // 4 + 1) * (ny + 1)  # L0 defaults: 71 x 5
+    assert _is_vertex(m["x"], (length, thickness / 2))
+    assert geometry.describe("flag", params)["points"]["A"] == (length, thickness / 2)
+
+
+def test_box_measures(tmp_path):
+    r = 0.2
+    errors_ = []
+    for level in (0, 1):
+        m = _measures(geometry.build_msh("box", level, None, tmp_path))
+        assert m["fluid"] + m["solid"] == pytest.approx(1.0, rel=1e-12)
+        assert m["solid"] == pytest.approx(math.pi * r**2, abs=2e-3)  # inscribed polygon
+        assert m["fluid"] == pytest.approx(1 - math.pi * r**2, abs=2e-3)
+        assert m["walls"] == pytest.approx(4.0, rel=1e-12) and m["boundary"] == pytest.approx(4.0, rel=1e-12)
+        assert m["interior5"] == pytest.approx(2 * math.pi * r, rel=5e-3 if level == 0 else 1.5e-3)
+        assert sum(m[k] for k in ("inlet", "outlet", "cylinder", "interface", "lid", "clamp")) == 0
+        for point in ((0.5 - r, 0.5), (0.5 + r, 0.5), (0.5, 0.5 - r), (0.5, 0.5 + r)):
+            assert _is_vertex(m["x"], point)
+        errors_.append(math.pi * r**2 - m["solid"])
+    assert 0 < errors_[1] < errors_[0] / 3  # O(h^2)
+    m = _measures(geometry.build_msh("box", 0, {"radius": 0.1}, tmp_path))
+    assert m["solid"] == pytest.approx(math.pi * 0.1**2, abs=1e-3)
+    assert m["interior5"] == pytest.approx(2 * math.pi * 0.1, rel=1e-2) and m["walls"] == pytest.approx(4.0)
+
+
 def _gmsh_vertices(path):
     """Number of mesh nodes in the file, counted by gmsh (no dolfinx needed)."""
     import gmsh
@@ -94,12 +130,12 @@ def _gmsh_vertices(path):
         gmsh.finalize()
 
 
-@pytest.mark.parametrize("name,flag", [("turek_hron", "solid"), ("turek_hron", "rigid"),
-                                       ("schaefer_turek", None)])
-def test_vertex_counts_per_level(tmp_path, name, flag):
+@pytest.mark.parametrize("name,flag,low,high", [("turek_hron", "solid", 600, 900), ("turek_hron", "rigid", 600, 900),
+                                                ("schaefer_turek", None, 600, 900), ("box", None, 300, 500)])
+def test_vertex_counts_per_level(tmp_path, name, flag, low, high):
     params = {"flag": flag} if flag else None
     n0, n1 = (_gmsh_vertices(geometry.build_msh(name, level, params, tmp_path)) for level in (0, 1))
-    assert 600 <= n0 <= 900
+    assert low <= n0 <= high
     assert 3.3 <= n1 / n0 <= 4.2
 
 
@@ -122,6 +158,19 @@ def test_deterministic_and_cached(tmp_path, monkeypatch):
     assert geometry.build_msh("turek_hron", 0, None, tmp_path / "a") == a
 
 
+@pytest.mark.parametrize("name,defaults,other", [("flag", {"length": 0.35, "thickness": 0.02}, {"thickness": 0.03}),
+                                                ("box", {"radius": 0.2}, {"radius": 0.25})])
+def test_deterministic_new_geometries(tmp_path, monkeypatch, name, defaults, other):
+    a = geometry.build_msh(name, 0, None, tmp_path / "a")
+    b = geometry.build_msh(name, 0, defaults, tmp_path / "b")
+    assert a.name == b.name and a.name.startswith(f"{name}-L0-") and a.read_bytes() == b.read_bytes()
+    assert [p.name for p in (tmp_path / "a").iterdir()] == [a.name]
+    assert a.read_text().startswith("$MeshFormat\n4.1 0 8\n")
+    assert geometry.build_msh(name, 0, other, tmp_path / "a").name != a.name
+    monkeypatch.setattr(getattr(geometry, name), "build", lambda *args: pytest.fail("rebuilt a cached mesh"))
+    assert geometry.build_msh(name, 0, defaults, tmp_path / "a") == a
+
+
 @pytest.mark.parametrize("name,level,params,key", [
     ("cylinder", 0, None, "geometry.name"),
     ("turek_hron", 7, None, "geometry.level"),
@@ -133,6 +182,15 @@ def test_deterministic_and_cached(tmp_path, monkeypatch):
     ("channel", 0, {"length": -1.0}, "geometry.length"),
     ("channel", 0, {"height": "1"}, "geometry.height"),
     ("channel", 0, {"size": 1.0}, "geometry.size"),
+    ("flag", "seed", None, "geometry.level"),
+    ("flag", 0, {"thickness": 0.0}, "geometry.thickness"),
+    ("flag", 0, {"length": "0.35"}, "geometry.length"),
+    ("flag", 0, {"height": 0.02}, "geometry.height"),
+    ("box", 7, None, "geometry.level"),
+    ("box", 0, {"radius": -0.1}, "geometry.radius"),
+    ("box", 0, {"radius": 0.5}, "geometry.radius"),
+    ("box", 0, {"radius": True}, "geometry.radius"),
+    ("box", 0, {"size": 1.0}, "geometry.size"),
 ])
 def test_bad_input(tmp_path, name, level, params, key):
     with pytest.raises(errors.InputError, match=rf"^{key}: "):
@@ -148,6 +206,13 @@ def test_describe_and_levels():
     assert geometry.describe("channel", {"height": 0.41})["height"] == 0.41
     assert "seed" in geometry.LEVELS["turek_hron"] and "seed" not in geometry.LEVELS["channel"]
     assert set(geometry.LEVELS) == set(geometry.GEOMETRIES)
+    d = geometry.describe("flag")
+    assert d["points"] == {"A": (0.35, 0.01)} and d["cell_tags"] == {"solid": 2}
+    assert d["facet_tags"] == {"interface": 5, "clamp": 7} and (d["length"], d["thickness"]) == (0.35, 0.02)
+    d = geometry.describe("box")
+    assert d["cell_tags"] == {"fluid": 1, "solid": 2} and d["facet_tags"] == {"walls": 3, "interface": 5}
+    assert d["disk"] == {"centre": (0.5, 0.5), "radius": 0.2}
+    assert geometry.describe("box", {"radius": 0.1})["disk"]["radius"] == 0.1
 
 
 def test_import_is_light():

@@ -4,6 +4,13 @@
 gmsh (on the calling process only) when the file is not cached yet. Level L halves the element size of
 level L-1 (about 4x the vertices); ``"seed"`` (turek_hron only) matches the seed paper's mesh size.
 Importing this package imports neither gmsh nor dolfinx.
+
+Tags (``_gmsh.CELL_TAGS`` / ``_gmsh.FACET_TAGS``; each geometry's ``describe`` lists the ones it uses):
+
+cells: fluid 1, solid 2 (turek_hron with flag: solid, flag (all cells), box (the disk)).
+facets: inlet 1 (x = 0), outlet 2 (x = L), walls 3 (y = 0 and y = H; square: left, right, bottom; box: all four
+sides), cylinder 4 (circle), interface 5 (turek_hron flag boundary off the cylinder; flag: bottom, right, top
+edges, exterior; box: the circle, interior), lid 6 (square top), clamp 7 (flag: left edge x = 0).
 """
 
 import hashlib
@@ -13,10 +20,11 @@ import pathlib
 import tempfile
 
 from .. import errors
-from . import _gmsh, channel, schaefer_turek, square, turek_hron
+from . import _gmsh, box, channel, flag, schaefer_turek, square, turek_hron
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
-_MODULES = {"turek_hron": turek_hron, "schaefer_turek": schaefer_turek, "channel": channel, "square": square}
+_MODULES = {"turek_hron": turek_hron, "schaefer_turek": schaefer_turek, "channel": channel, "square": square,
+            "flag": flag, "box": box}
 GEOMETRIES = tuple(_MODULES)
 LEVELS = {name: module.LEVELS for name, module in _MODULES.items()}
 
@@ -47,6 +55,8 @@ def _check(name, level, params):
         else:
             value = float(value)
         full[key] = value
+    if hasattr(module, "validate"):
+        module.validate(full)
     return module, full
 
 

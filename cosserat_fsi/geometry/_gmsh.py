@@ -6,7 +6,7 @@ Every function here expects the ``gmsh`` module as first argument: the builders 
 import math
 
 CELL_TAGS = {"fluid": 1, "solid": 2}
-FACET_TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6}
+FACET_TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6, "clamp": 7}
 
 _EPS = 1e-8
 
@@ -80,21 +80,29 @@ def add_physical(gmsh, dim, tags, name):
     gmsh.model.setPhysicalName(dim, value, name)
 
 
-def transfinite_rectangle(gmsh, length, height, nx, ny, facets):
+def transfinite_rectangle(gmsh, length, height, nx, ny, facets, cells="fluid", split_right=False):
     """Structured triangle mesh of [0,length]x[0,height] with nx x ny divisions ("Left" diagonals).
 
-    ``facets`` names the bottom, right, top and left sides (equal names are merged into one group)."""
+    ``facets`` names the bottom, right, top and left sides (equal names are merged into one group);
+    ``cells`` names the cells. ``split_right``: (length, height/2) is a vertex too (``ny`` must be even)."""
     geo = gmsh.model.geo
     pts = [geo.addPoint(x, y, 0) for x, y in ((0, 0), (length, 0), (length, height), (0, height))]
-    lines = [geo.addLine(pts[i], pts[(i + 1) % 4]) for i in range(4)]
+    if split_right:
+        mid = geo.addPoint(length, height / 2, 0)
+        ends = [(pts[0], pts[1]), (pts[1], mid), (mid, pts[2]), (pts[2], pts[3]), (pts[3], pts[0])]
+        sides, counts = (0, 1, 1, 2, 3), (nx, ny // 2, ny // 2, nx, ny)
+    else:
+        ends = [(pts[i], pts[(i + 1) % 4]) for i in range(4)]
+        sides, counts = (0, 1, 2, 3), (nx, ny, nx, ny)
+    lines = [geo.addLine(a, b) for a, b in ends]
     surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
-    for line, n in zip(lines, (nx, ny, nx, ny)):
+    for line, n in zip(lines, counts):
         geo.mesh.setTransfiniteCurve(line, n + 1)
     geo.mesh.setTransfiniteSurface(surface, "Left", pts)
     geo.synchronize()
-    add_physical(gmsh, 2, [surface], "fluid")
+    add_physical(gmsh, 2, [surface], cells)
     for name in dict.fromkeys(facets):
-        add_physical(gmsh, 1, [ln for ln, f in zip(lines, facets) if f == name], name)
+        add_physical(gmsh, 1, [ln for ln, side in zip(lines, sides) if facets[side] == name], name)
 
 
 def occ_disk(gmsh, xc, yc, r):

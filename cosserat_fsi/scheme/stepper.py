@@ -16,8 +16,9 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import DivergenceError, InputError
-from ..physics import fluid
+from ..physics import fluid, solid
 from .characteristics import Characteristics
+from .mesh_motion import MeshMotion
 from .spaces import mixed_space
 
 import dolfinx
@@ -29,8 +30,8 @@ SCHEMES = {"characteristics1": 1, "characteristics2": 2}
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 
-NO_SLIP = ("walls", "cylinder", "interface")  # plus the lid of the square when it does not move
-TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6}
+TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6, "clamp": 7}
+FLUID, SOLID = 1, 2  # cell tags
 
 
 @dataclass(frozen=True)
@@ -95,9 +96,8 @@ class Stepper:
         the outlet; used by the verification tests."""
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.model = Model.from_scene(scene)
-        if self.model.solid:
-            raise InputError("solid: the solid and the moving mesh are not implemented yet; "
-                             "use geometry.flag: rigid for a fluid-only Turek–Hron scene")
+        if self.model.solid and scene.time.scheme != "characteristics1":
+            raise InputError("time.scheme: only characteristics1 is available with a solid (moving mesh) so far")
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
         self.timers = Timers()
         self.dt = float(scene.time.dt)
@@ -118,6 +118,13 @@ class Stepper:
             self.omega_nm1 = dolfinx.fem.Function(S)
             self.omega_hist = dolfinx.fem.Function(S)
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.model.micro_rotation else None, comm)
+        self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
+        self.motion = None
+        if self.model.solid:
+            self.d_n = dolfinx.fem.Function(V, name="displacement")
+            solid_cells = cell_tags.indices[cell_tags.values == SOLID]
+            self.solid_dofs = dolfinx.fem.locate_dofs_topological(V, mesh.topology.dim, solid_cells)
+            self.motion = MeshMotion(mesh, cell_tags, comm)
 
         self._constants()
         self._forms()
@@ -132,13 +139,37 @@ class Stepper:
     def _const(self, value):
         return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
 
+    def _cellwise(self, fluid_value, solid_value, shape=()):
+        """A DG0 field: ``fluid_value`` on fluid cells, ``solid_value`` on solid cells."""
+        Q = compat.function_space(self.mesh, "DG", 0, shape=shape or None)
+        field = dolfinx.fem.Function(Q)
+        values = field.x.array.reshape(-1, int(np.prod(shape)) if shape else 1)
+        dofs = compat.cell_dofs(Q)[:, 0]
+        tags = np.full(len(dofs), FLUID)
+        ct = self.cell_tags
+        inside = ct.indices < len(dofs)
+        tags[ct.indices[inside]] = ct.values[inside]
+        values[dofs[tags == FLUID]] = fluid_value
+        values[dofs[tags == SOLID]] = solid_value
+        field.x.scatter_forward()
+        return field
+
     def _constants(self):
         s = self.scene
         self.alpha = self._const(1.0)
         self.inv_dt = self._const(1.0 / self.dt)
-        self.rho = self._const(s.fluid.rho)
-        self.mu = self._const(s.fluid.mu)
-        self.f = dolfinx.fem.Constant(self.mesh, np.asarray(s.fluid.body_force, dtype=PETSc.ScalarType))
+        rho_f = s.fluid.rho if s.fluid is not None else 0.0
+        self.mu = self._const(s.fluid.mu if s.fluid is not None else 0.0)
+        body = np.asarray(s.fluid.body_force if s.fluid is not None else (0.0, 0.0), dtype=PETSc.ScalarType)
+        if self.model.solid:
+            self.rho = self._cellwise(rho_f, s.solid.rho)
+            self.f = self._cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
+            self.mu_s = self._const(s.solid.mu_s)
+            self.dt_const = self._const(self.dt)
+        else:
+            self.rho = self._const(rho_f)
+            self.f = dolfinx.fem.Constant(self.mesh, body)
+        self.viscous_form = s.fluid.viscous_form if s.fluid is not None else "laplacian"
         self.penalty = self._const(s.solver.penalty)
         if self.model.micro_rotation:
             m = s.micropolar
@@ -155,15 +186,20 @@ class Stepper:
         a, L = fluid.navier_stokes(trial[i_u], trial[i_p], test[i_u], test[i_p], rho=self.rho, mu=self.mu,
                                    inv_dt=self.inv_dt, alpha=self.alpha, history=self.u_hist,
                                    body_force=self.f, penalty=self.penalty, dx=dx,
-                                   viscous_form=self.scene.fluid.viscous_form)
+                                   viscous_form=self.viscous_form)
         if self.model.micro_rotation:
             i_w = sp.index("micro_rotation")
             a_m, L_m = fluid.micropolar(trial[i_u], trial[i_w], test[i_u], test[i_w], rho=self.rho,
                                         mu_r=self.mu_r, lambda1=self.lambda1, inertia=self.inertia,
                                         inv_dt=self.inv_dt, alpha=self.alpha, history=self.omega_hist,
                                         body_couple=self.g, dx=dx,
-                                        viscous_form=self.scene.fluid.viscous_form)
+                                        viscous_form=self.viscous_form)
             a, L = a + a_m, L + L_m
+        if self.model.solid:
+            dx_solid = ufl.dx(domain=self.mesh, subdomain_data=self.cell_tags)(SOLID)
+            a_s, L_s = solid.mooney_rivlin(trial[i_u], test[i_u], self.d_n, mu_s=self.mu_s, dt=self.dt_const,
+                                           dx_solid=dx_solid)
+            a, L = a + a_s, L + L_s
         self.a_form, self.L_form = compat.form(a), compat.form(L)
 
     def _facets(self, *names):
@@ -202,7 +238,8 @@ class Stepper:
             return
         inflow = self.scene.inflow
         moving_lid = inflow is not None and self.scene.geometry.name == "square"
-        add("velocity", NO_SLIP + (() if moving_lid else ("lid",)))
+        no_slip = self.no_slip_boundaries()
+        add("velocity", no_slip + (() if moving_lid else ("lid",)))
         if inflow is not None:
             ramp_time = inflow.ramp_time
             y0 = self.comm.allreduce(mesh.geometry.x[:, 1].min(), op=MPI.MIN)
@@ -220,10 +257,20 @@ class Stepper:
             add("velocity", ("lid",) if moving_lid else ("inlet",), values=lid if moving_lid else profile,
                 scale=lambda t: ramp(t, ramp_time))
         if self.model.micro_rotation:
-            add("micro_rotation", NO_SLIP + ("lid",))
+            add("micro_rotation", no_slip + ("lid",))
+
+    def no_slip_boundaries(self) -> tuple:
+        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free)."""
+        return ("walls", "cylinder", "clamp") + (() if self.model.solid else ("interface",))
 
     def set_initial(self):
-        """Initial state: rest, or the exact solution at t = 0."""
+        """Initial state: rest (the solid with its initial velocity), or the exact solution at t = 0."""
+        if self.model.solid and any(self.scene.solid.initial_velocity):
+            values = self.u_n.x.array.reshape(-1, 2)
+            values[self.solid_dofs] = self.scene.solid.initial_velocity
+            fixed = dolfinx.fem.locate_dofs_topological(self.u_n.function_space, self.mesh.topology.dim - 1,
+                                                        self._facets(*self.no_slip_boundaries()))
+            values[fixed] = 0.0  # the clamp stays at rest
         if self.exact is None:
             return
         self.u_n.interpolate(lambda x: self.exact.velocity(x, 0.0))
@@ -247,8 +294,8 @@ class Stepper:
 
     # --------------------------------------------------------------------------------- one step
     def _matrix(self, alpha: float):
-        """Assemble (and have MUMPS factorise) the matrix only when α changed."""
-        if self._A is not None and self._alpha_of_A == alpha:
+        """Assemble (and have MUMPS factorise) the matrix when α changed or the mesh moved."""
+        if self._A is not None and self._alpha_of_A == alpha and self.motion is None:
             return
         with self.timers("assemble_matrix"):
             self.alpha.value = alpha
@@ -267,8 +314,12 @@ class Stepper:
         u_nodes = chars.nodal(self.u_n)
         fns_n = [self.u_n] + ([self.omega_n] if self.model.micro_rotation else [])
         if alpha == 1.0:
-            vals = chars.backtrack(u_nodes, self.dt, fns_n)
-            hist = vals
+            transport = u_nodes - chars.nodal(self.mesh_velocity)  # ALE: relative to the mesh
+            extra = [self.d_n] if self.model.solid else []
+            vals = chars.backtrack(transport, self.dt, fns_n + extra)
+            hist = vals[: len(fns_n)]
+            if self.model.solid:
+                self._d_foot = vals[-1]
         else:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
             u_star = 2.0 * u_nodes - chars.nodal(self.u_nm1)
             vals1 = chars.backtrack(u_star, self.dt, fns_n)
@@ -282,8 +333,11 @@ class Stepper:
             self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
             self.omega_hist.x.scatter_forward()
 
-    def advance(self):
-        """One time step t^n → t^{n+1}."""
+    def advance(self, before_move=None):
+        """One time step t^n → t^{n+1}: solve on Ω^n, update d, then move the mesh to Ω^{n+1}.
+
+        ``before_move`` is called after the solve, while the mesh is still Ω^n (observables).
+        """
         alpha = 1.0 if (self.order == 1 or self.step_count == 0) else 1.5
         self._matrix(alpha)
         t_new = (self.step_count + 1) * self.dt
@@ -310,8 +364,21 @@ class Stepper:
         if self.model.micro_rotation:
             self.omega_nm1.x.array[:] = self.omega_n.x.array
             self.omega_n.x.array[:] = self.w.x.array[sp.dofs("micro_rotation")]
+        if self.model.solid:  # seed §5.1: d^{n+1} = d^n∘X^n + δt u^{n+1} (on the solid nodes)
+            d = self.d_n.x.array.reshape(-1, 2)
+            u = self.u_n.x.array.reshape(-1, 2)
+            nodes = self.solid_dofs
+            d[nodes] = self._d_foot[nodes] + self.dt * u[nodes]
+            self.d_n.x.scatter_forward()
         self.t = t_new
         self.step_count += 1
+        if before_move is not None:
+            before_move()
+        if self.motion is not None:
+            with self.timers("mesh_motion"):
+                w_P1 = self.motion.move(self.u_n, self.dt, self.t)
+                self.mesh_velocity.interpolate(w_P1)
+                self.chars.locator.update()
 
     def _check_finite(self, t):
         bad = not np.isfinite(self.w.x.array).all()
@@ -328,3 +395,4 @@ class Stepper:
             out[name] = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
         out["total"] = sum(out.values())
         return out
+

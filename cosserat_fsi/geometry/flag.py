@@ -1,0 +1,39 @@
+"""Turek-Hron flag alone (CSM1/CSM2, free vibration): the rectangle [0,length]x[0,thickness], solid cells.
+
+Tags: cells ``solid`` (2) everywhere; left edge x = 0 ``clamp`` (7); bottom, right and top edges
+``interface`` (5, the free surface). The right edge is split at A = (length, thickness/2), a mesh vertex.
+Defaults ``length`` 0.35, ``thickness`` 0.02 (the Turek-Hron flag, 0.6 - 0.25 by 0.02).
+
+Structured (transfinite) triangles, "Left" diagonals: 4 divisions across the thickness at level 0, doubled
+per level; along the flag max(1, round(4 * length / thickness)) times the same factor (70 for the defaults,
+square 0.005 x 0.005 cells). Defaults: L0 355 vertices (71x5), L1 1,269 (141x9), L2 4,777 (281x17), ...
+"""
+
+from . import _gmsh
+
+LEVELS = (0, 1, 2, 3, 4, 5, 6)
+DEFAULTS = {"length": 0.35, "thickness": 0.02}
+CHOICES = {}
+
+
+def describe(params):
+    """Tags, named points and dimensions of the geometry."""
+    length, thickness = params["length"], params["thickness"]
+    return {
+        "cell_tags": {"solid": _gmsh.CELL_TAGS["solid"]},
+        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("interface", "clamp")},
+        "points": {"A": (length, thickness / 2)},
+        "length": length,
+        "height": thickness,
+        "thickness": thickness,
+    }
+
+
+def build(gmsh, scale, params):
+    """Create and mesh the model in the current gmsh session; 4 / ``scale`` divisions across the flag."""
+    length, thickness = params["length"], params["thickness"]
+    ny = round(4 / scale)
+    nx = max(1, round(4 * length / thickness)) * ny // 4
+    facets = ("interface", "interface", "interface", "clamp")
+    _gmsh.transfinite_rectangle(gmsh, length, thickness, nx, ny, facets, cells="solid", split_right=True)
+    gmsh.model.mesh.generate(2)

@@ -1,0 +1,40 @@
+"""Solid terms of the monolithic system: the incompressible Mooney–Rivlin body of seed eqs. (6)–(14), (28)–(29).
+
+Conventions: ``G = grad(d)`` with G_ij = ∂d_i/∂x_j (UFL). The reference position of the material at x
+is x − d(x), so F = (I − G)⁻¹ and B⁻¹ = (FFᵀ)⁻¹ = I − G − Gᵀ + GᵀG (the seed writes the last term
+∇d∇dᵀ with its transposed-gradient convention). In 2D with det F = 1, Cayley–Hamilton gives
+B = (tr B) I − B⁻¹, so the neo-Hookean stress −pI + μ_s B equals −p'I + μ_s (Dd − GᵀG) with a redefined
+pressure: the stress coefficient of (Dd − GᵀG) is the shear modulus μ_s, the seed's 2c₁ (eq. 14), and
+the Mooney–Rivlin c₂ only enters the pressure.
+
+Seed eq. (28): with d^{n+1} = d^n + δt u^{n+1},
+    Dd − GᵀG ≈ Dd^n − G_nᵀG_n + δt (Du − HᵀG_n − G_nᵀH),   H = grad(u^{n+1}),
+and since the tensor is symmetric, ∫ σ:∇ũ = ½ ∫ σ:Dũ.
+"""
+
+import ufl
+
+from .kinematics import D
+
+
+def strain_measure(d):
+    """Dd − GᵀG = I − B⁻¹ (seed eqs. 11–14)."""
+    G = ufl.grad(d)
+    return D(d) - G.T * G
+
+
+def mooney_rivlin(u, v, d, *, mu_s, dt, dx_solid):
+    """Linearised solid terms of seed eq. (31): returns (a, L).
+
+    a = ½ μ_s δt (Du − HᵀG − GᵀH) : Dũ,   L = −½ μ_s (Dd − GᵀG) : Dũ   (on the solid cells).
+    """
+    G, H = ufl.grad(d), ufl.grad(u)
+    a = 0.5 * mu_s * dt * ufl.inner(D(u) - H.T * G - G.T * H, D(v)) * dx_solid
+    L = -0.5 * mu_s * ufl.inner(strain_measure(d), D(v)) * dx_solid
+    return a, L
+
+
+def elastic_energy_density(d, mu_s):
+    """Neo-Hookean stored energy per unit volume, μ_s/2 (tr B − 2), with F = (I − grad d)⁻¹ (2D)."""
+    F = ufl.inv(ufl.Identity(2) - ufl.grad(d))
+    return 0.5 * mu_s * (ufl.tr(F * F.T) - 2)
