@@ -187,10 +187,18 @@ class Time(_Section):
 
 
 class Solver(_Section):
-    """Linear solver: pressure penalty and MUMPS fill-reducing ordering."""
+    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes.
+
+    ``reuse_factorization``: when the matrix changes every step (moving mesh), keep the last MUMPS
+    factorisation as the preconditioner of a GMRES solve (relative tolerance ``krylov_rtol``) and
+    refactorise only when GMRES needs more than ``max_krylov_iterations`` iterations.
+    """
 
     penalty: float = Field(default=1e-10, ge=0)
     mumps_ordering: Literal["metis", "pord", "amd", "auto"] = "auto"
+    reuse_factorization: bool = True
+    krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
+    max_krylov_iterations: int = Field(default=12, ge=1)
 
 
 class Output(_Section):

@@ -66,6 +66,40 @@ CASES = [
     Case("cfd3-L2-c2-dt0.0025", "configs/turek_hron_cfd3.yaml", _c(2, "characteristics2", 0.0025, 8), CFD3),
 ]
 
+# The incompressible law is stiffer in bending than the benchmark's St. Venant–Kirchhoff solid with ν = 0.4
+# (4 μ_s against E/(1 − ν²) = 3.333 μ_s): μ_s × 5/6 gives the benchmark's bending stiffness.
+EQ = 5.0 / 6.0
+CSM = {"ux_A": 0.10, "uy_A": 0.05}
+FSI1 = {"uy_A": 0.05, "drag": 0.05}
+FSI3 = {"uy_A.amplitude": 0.10, "uy_A.frequency": 0.05}
+SEED = {"uy_A.amplitude": 0.25, "uy_A.frequency": 0.10}
+FSI_CASES = [
+    Case("csm1-L1", "configs/turek_hron_csm1.yaml", {}, CSM),
+    Case("csm1-L1-eq", "configs/turek_hron_csm1.yaml", {"solid.mu_s": 0.5e6 * EQ}, CSM,
+         "CSM1 with the bending-equivalent shear modulus μ_s = 0.4167e6"),
+    Case("csm2-L1", "configs/turek_hron_csm2.yaml", {}, CSM),
+    Case("csm2-L1-eq", "configs/turek_hron_csm2.yaml", {"solid.mu_s": 2.0e6 * EQ}, CSM,
+         "CSM2 with the bending-equivalent μ_s = 1.667e6"),
+    Case("fsi1-L1-dt0.01", "configs/turek_hron_fsi1.yaml", {}, FSI1),
+    Case("fsi1-L1-dt0.01-eq", "configs/turek_hron_fsi1.yaml", {"solid.mu_s": 0.5e6 * EQ}, FSI1,
+         "FSI1 with the bending-equivalent μ_s = 0.4167e6"),
+    Case("fsi3-seed-dt0.005", "configs/seed_fsi3.yaml", {"benchmark": "turek_hron_fsi3"}, FSI3,
+         "the seed's settings (its mesh, δt = 0.005) against Turek–Hron FSI3"),
+    Case("fsi3-seed-dt0.001", "configs/turek_hron_fsi3.yaml", {"geometry.level": "seed", "time.t_end": 7}, FSI3),
+    Case("fsi3-L1-dt0.001", "configs/turek_hron_fsi3.yaml", {"time.t_end": 7}, FSI3),
+    Case("fsi3-seed-dt0.0005", "configs/turek_hron_fsi3.yaml",
+         {"geometry.level": "seed", "time.dt": 0.0005, "time.t_end": 7}, FSI3),
+    Case("fsi3-L1-dt0.0005", "configs/turek_hron_fsi3.yaml", {"time.dt": 0.0005, "time.t_end": 7}, FSI3),
+    Case("fsi3-L1-dt0.001-eq", "configs/turek_hron_fsi3.yaml", {"time.t_end": 7, "solid.mu_s": 2.0e6 * EQ}, FSI3,
+         "FSI3 with the bending-equivalent μ_s = 1.667e6"),
+    Case("seed-dt0.005", "configs/seed_fsi3.yaml", {}, SEED, "the seed's own run, against the seed's ≈ 4.5 Hz, ≈ 0.03 m"),
+]
+# Seed figures 5–6: amplitude of uy(A) against the solid parameter c₁ (μ_s = 2 c₁), seed mesh, δt = 0.001
+C1_VALUES = (0.5e6, 0.75e6, 1.0e6, 1.5e6, 2.0e6)
+SWEEP_CASES = [Case(f"c1sweep-{c1:.3g}", "configs/turek_hron_fsi3.yaml",
+                    {"geometry.level": "seed", "time.t_end": 6, "solid.mu_s": 2 * c1}, {}) for c1 in C1_VALUES]
+ALL_CASES = CASES + FSI_CASES + SWEEP_CASES
+
 
 def run_case(case: Case, runs: Path, python: str) -> Path:
     """Run one case (unless it already finished) and return its output folder."""
@@ -172,8 +206,80 @@ def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     return str(path.relative_to(out))
 
 
+def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -> str | None:
+    """uy(A)(t) of the cases whose id starts with ``prefix``, with the FSI3 reference band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .io import read_timeseries
+    from .references import reference_for
+
+    series = [(c.id, runs / c.id / "timeseries.csv") for c in cases if c.id.startswith(prefix)]
+    series = [(i, p) for i, p in series if p.exists()]
+    if not series:
+        return None
+    ref = reference_for("turek_hron_fsi3")["uy_A"]
+    fig, ax = plt.subplots(figsize=(9, 4))
+    for label, csv in series:
+        ts = read_timeseries(csv)
+        ax.plot(ts["t"], ts["uy_A"], lw=0.8, label=label)
+    ax.axhspan(ref["mean"] - ref["amplitude"], ref["mean"] + ref["amplitude"], color="0.85", zorder=0,
+               label="Turek–Hron FSI3 range of uy(A)")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("uy(A) (m)")
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    path = out / "figures" / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return str(path.relative_to(out))
+
+
+def plot_c1_sweep(runs: Path, out: Path) -> str | None:
+    """Seed figures 5–6: uy(A)(t) for each c₁ and the oscillation amplitude against c₁."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .analysis import periodic_analysis
+    from .io import read_timeseries
+
+    done = [(c1, runs / f"c1sweep-{c1:.3g}" / "timeseries.csv") for c1 in C1_VALUES]
+    done = [(c1, p) for c1, p in done if p.exists()]
+    if not done:
+        return None
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    amps = []
+    for c1, csv in done:
+        ts = read_timeseries(csv)
+        ax1.plot(ts["t"], ts["uy_A"], lw=0.7, label=f"c1 = {c1:.3g}")
+        a = periodic_analysis(ts["t"], ts["uy_A"]).get("amplitude")
+        amps.append((c1, a if a is not None else 0.0))
+    ax1.set_xlabel("t (s)")
+    ax1.set_ylabel("uy(A) (m)")
+    ax1.set_title("seed fig. 5: tip displacement for several c1")
+    ax1.legend(fontsize=7)
+    ax2.plot([a[0] for a in amps], [a[1] for a in amps], "o-")
+    ax2.set_xlabel("c1 (μ_s = 2 c1)")
+    ax2.set_ylabel("amplitude of uy(A) (m)")
+    ax2.set_title("seed fig. 6: amplitude against c1")
+    fig.tight_layout()
+    path = out / "figures" / "seed_fig5_6_c1_sweep.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return str(path.relative_to(out))
+
+
 def write_report(cases, runs: Path, out: Path) -> Path:
     figure = plot_cfd3(cases, runs, out)
+    extra = [f for f in (plot_tip(cases, runs, out, "fsi3", "fsi3_uy_A.png", "FSI3: tip displacement uy(A)"),
+                         plot_c1_sweep(runs, out)) if f]
     lines = [
         "# Validation",
         "",
@@ -196,6 +302,8 @@ def write_report(cases, runs: Path, out: Path) -> Path:
             lines.append(f"- `{case.id}`: {case.note}")
     if figure:
         lines += ["", f"![CFD3 lift]({figure})", ""]
+    for f in extra:
+        lines += ["", f"![{Path(f).stem}]({f})", ""]
     path = out / "validation.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -210,14 +318,14 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.out)
     runs = out / "runs"
-    cases = [c for c in CASES if fnmatch.fnmatch(c.id, args.only)]
+    cases = [c for c in ALL_CASES if fnmatch.fnmatch(c.id, args.only)]
     if not args.report_only:
         env_python = sys.executable
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
         with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
             for done in pool.map(lambda c: run_case(c, runs, env_python), cases):
                 print(f"finished {done.name}", flush=True)
-    print(write_report(CASES, runs, out))
+    print(write_report(ALL_CASES, runs, out))
     return 0
 
 

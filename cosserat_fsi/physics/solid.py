@@ -35,6 +35,10 @@ def mooney_rivlin(u, v, d, *, mu_s, dt, dx_solid):
 
 
 def elastic_energy_density(d, mu_s):
-    """Neo-Hookean stored energy per unit volume, μ_s/2 (tr B − 2), with F = (I − grad d)⁻¹ (2D)."""
+    """Neo-Hookean stored energy per unit volume, μ_s/2 (tr B − 2 − 2 ln J), F = (I − grad d)⁻¹ (2D).
+
+    It equals the incompressible μ_s/2 (tr B − 2) when J = det F = 1, and stays ≥ 0 when the discrete
+    J is not exactly 1 (tr B ≥ 2J ≥ 2 + 2 ln J).
+    """
     F = ufl.inv(ufl.Identity(2) - ufl.grad(d))
-    return 0.5 * mu_s * (ufl.tr(F * F.T) - 2)
+    return 0.5 * mu_s * (ufl.tr(F * F.T) - 2 - 2 * ufl.ln(ufl.det(F)))

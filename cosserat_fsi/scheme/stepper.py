@@ -18,7 +18,7 @@ from .. import compat
 from ..errors import DivergenceError, InputError
 from ..physics import fluid, solid
 from .characteristics import Characteristics
-from .mesh_motion import MeshMotion
+from .mesh_motion import MeshMotion, PrescribedMotion
 from .spaces import mixed_space
 
 import dolfinx
@@ -90,10 +90,12 @@ class Timers:
 class Stepper:
     """Monolithic velocity (× micro-rotation) × pressure system of one scene, advanced step by step."""
 
-    def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD, exact=None):
+    def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD, exact=None,
+                 prescribed_motion=None):
         """``exact``: optional exact solution (attributes ``velocity(x, t)`` and, with micro-rotation,
         ``micro_rotation(x, t)``) giving the initial state and the Dirichlet data on every boundary but
-        the outlet; used by the verification tests."""
+        the outlet; used by the verification tests. ``prescribed_motion(X, t)``: a displacement of the
+        reference coordinates that the mesh follows instead of the material (ALE verification)."""
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.model = Model.from_scene(scene)
         if self.model.solid and scene.time.scheme != "characteristics1":
@@ -125,6 +127,10 @@ class Stepper:
             solid_cells = cell_tags.indices[cell_tags.values == SOLID]
             self.solid_dofs = dolfinx.fem.locate_dofs_topological(V, mesh.topology.dim, solid_cells)
             self.motion = MeshMotion(mesh, cell_tags, comm)
+        if prescribed_motion is not None:
+            if self.order != 1:
+                raise InputError("time.scheme: only characteristics1 is available on a moving mesh so far")
+            self.motion = PrescribedMotion(mesh, prescribed_motion, comm)
 
         self._constants()
         self._forms()
@@ -290,7 +296,33 @@ class Stepper:
         opts[f"{prefix}mat_mumps_icntl_14"] = 100  # workspace relaxation (%)
         opts[f"{prefix}mat_mumps_icntl_24"] = 1  # null-pivot detection (pure-Dirichlet pressure)
         ksp.setFromOptions()
+        self.factorisations = 0
+        self.krylov_iterations = 0
+        self._reuse = self.motion is not None and self.scene.solver.reuse_factorization
+        if self._reuse:  # the last LU preconditions GMRES until GMRES needs too many iterations
+            solver = self.scene.solver
+            ksp.setType("gmres")
+            ksp.setTolerances(rtol=solver.krylov_rtol, atol=1e-50, max_it=solver.max_krylov_iterations)
+            ksp.setInitialGuessNonzero(True)
+            ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+            ksp.getPC().setReusePreconditioner(True)
         return ksp
+
+    def _solve(self, b, x):
+        """Direct solve (factorisation reused while the matrix is constant); on a moving mesh, GMRES
+        preconditioned by the last factorisation, refactorising when it does not converge in time."""
+        ksp = self.ksp
+        ksp.solve(b, x)
+        if not self._reuse:
+            return
+        self.krylov_iterations += ksp.getIterationNumber()
+        if self.factorisations == 0 or ksp.getConvergedReason() <= 0:
+            if self.factorisations > 0:  # the old factorisation no longer does: refactorise
+                ksp.getPC().setReusePreconditioner(False)
+                ksp.setOperators(self._A)
+                ksp.solve(b, x)
+                ksp.getPC().setReusePreconditioner(True)
+            self.factorisations += 1
 
     # --------------------------------------------------------------------------------- one step
     def _matrix(self, alpha: float):
@@ -354,7 +386,7 @@ class Stepper:
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             fem_petsc.set_bc(b, self.bcs)
         with self.timers("solve"):
-            self.ksp.solve(b, compat.petsc_vec(self.w))
+            self._solve(b, compat.petsc_vec(self.w))
             self.w.x.scatter_forward()
         self._check_finite(t_new)
         sp = self.space
