@@ -98,6 +98,8 @@ class Stepper:
         reference coordinates that the mesh follows instead of the material (ALE verification)."""
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.model = Model.from_scene(scene)
+        if self.model.micro_rotation and scene.micropolar.wall_condition != "zero":
+            raise InputError("micropolar.wall_condition: only 'zero' (ω = 0 on walls, the seed's) is implemented")
         if self.model.solid and scene.time.scheme != "characteristics1":
             raise InputError("time.scheme: only characteristics1 is available with a solid (moving mesh) so far")
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
@@ -183,6 +185,15 @@ class Stepper:
             self.lambda1 = self._const(m.lambda1)
             self.inertia = self._const(m.inertia)
             self.g = self._const(m.body_couple)
+        self._source_updates = []
+        if self.exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
+            for name, attr, space in (("body_force", "f", "velocity"), ("body_couple", "g", "micro_rotation")):
+                if hasattr(self.exact, name) and (space != "micro_rotation" or self.model.micro_rotation):
+                    field = dolfinx.fem.Function(self.space.space(space))
+                    source = getattr(self.exact, name)
+                    self._source_updates.append(
+                        lambda t, field=field, source=source: field.interpolate(lambda x: source(x, t)))
+                    setattr(self, attr, field)
 
     def _forms(self):
         sp = self.space
@@ -373,7 +384,7 @@ class Stepper:
         alpha = 1.0 if (self.order == 1 or self.step_count == 0) else 1.5
         self._matrix(alpha)
         t_new = (self.step_count + 1) * self.dt
-        for update in self._updates:
+        for update in self._updates + self._source_updates:
             update(t_new)
         with self.timers("backtrack"):
             self._histories(alpha)
