@@ -159,7 +159,11 @@ class Solid(_Section):
     ``mu_s``: shear modulus (Pa); Cauchy stress −pI + μ_s (Dd − ∇d∇dᵀ), i.e. the seed's 2c₁ = μ_s
     (seed c₁ = 10⁶ ↔ mu_s = 2·10⁶, the Turek–Hron FSI3 value). ``c2``: the second Mooney–Rivlin constant;
     in 2D with det F = 1 it only shifts the pressure (seed eq. 14), so it does not change the motion.
-    ``gravity``: acceleration (m/s²) in −y on the solid. ``initial_velocity``: uniform initial velocity
+    ``gravity``: acceleration (m/s²) in −y on the solid, switched on with the cosine ramp over
+    ``gravity_ramp_time`` (a slow ramp reaches a static deflection without exciting the free
+    oscillation). ``volume_correction``: make the next velocity undo the area drift J ≠ 1 that the
+    seed's explicit node update x += δt u accumulates (on by default; off is the seed's scheme).
+    ``initial_velocity``: uniform initial velocity
     of the solid (m/s), e.g. to start a free vibration.
     """
 
@@ -167,6 +171,8 @@ class Solid(_Section):
     mu_s: PositiveFloat
     c2: NonNegFloat = 0.0
     gravity: float = 0.0
+    gravity_ramp_time: NonNegFloat = 0.0
+    volume_correction: bool = True
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
 
 

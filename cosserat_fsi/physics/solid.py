@@ -42,3 +42,16 @@ def elastic_energy_density(d, mu_s):
     """
     F = ufl.inv(ufl.Identity(2) - ufl.grad(d))
     return 0.5 * mu_s * (ufl.tr(F * F.T) - 2 - 2 * ufl.ln(ufl.det(F)))
+
+
+def volume_correction(q, d, *, dt, dx_solid):
+    """Right-hand side that turns the solid's continuity equation into div u^{n+1} = −ln J^n / δt.
+
+    The seed's update x^{n+1} = x^n + δt u^{n+1} with div u^{n+1} = 0 changes areas by O(δt² det ∇u) per
+    step (a rigid rotation inflates), a drift the incompressible law cannot see because a dilation only
+    moves the pressure. Asking the next velocity to undo the accumulated J^n = det F^n ≠ 1 removes it;
+    it vanishes when J^n = 1, so the scheme is unchanged for a motion it integrates exactly.
+    With the momentum system's −(q, div u): L = (q, ln J^n / δt)_s, F = (I − grad d)⁻¹.
+    """
+    J = 1.0 / ufl.det(ufl.Identity(2) - ufl.grad(d))
+    return q * ufl.ln(J) / dt * dx_solid

@@ -172,6 +172,12 @@ class Stepper:
         if self.model.solid:
             self.rho = self._cellwise(rho_f, s.solid.rho)
             self.f = self._cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
+            if s.solid.gravity and s.solid.gravity_ramp_time > 0:
+                fluid_part = self._cellwise(body, (0.0, 0.0), shape=(2,)).x.array.copy()
+                full = self.f.x.array.copy()
+                ramp_time = s.solid.gravity_ramp_time
+                self._gravity_update = lambda t: self.f.x.array.__setitem__(
+                    slice(None), fluid_part + ramp(t, ramp_time) * (full - fluid_part))
             self.mu_s = self._const(s.solid.mu_s)
             self.dt_const = self._const(self.dt)
         else:
@@ -185,7 +191,7 @@ class Stepper:
             self.lambda1 = self._const(m.lambda1)
             self.inertia = self._const(m.inertia)
             self.g = self._const(m.body_couple)
-        self._source_updates = []
+        self._source_updates = [self._gravity_update] if hasattr(self, "_gravity_update") else []
         if self.exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
             for name, attr, space in (("body_force", "f", "velocity"), ("body_couple", "g", "micro_rotation")):
                 if hasattr(self.exact, name) and (space != "micro_rotation" or self.model.micro_rotation):
@@ -217,6 +223,8 @@ class Stepper:
             a_s, L_s = solid.mooney_rivlin(trial[i_u], test[i_u], self.d_n, mu_s=self.mu_s, dt=self.dt_const,
                                            dx_solid=dx_solid)
             a, L = a + a_s, L + L_s
+            if self.scene.solid.volume_correction:
+                L = L + solid.volume_correction(test[i_p], self.d_n, dt=self.dt_const, dx_solid=dx_solid)
         self.a_form, self.L_form = compat.form(a), compat.form(L)
 
     def _facets(self, *names):
