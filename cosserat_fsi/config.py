@@ -274,9 +274,10 @@ class Scene(_Section):
 
     @property
     def has_micropolar(self) -> bool:
-        """True if any Cosserat coefficient (mu_r, lambda1, lambda2) is nonzero."""
+        """True if mu_r or lambda1 is nonzero. In 2D the micro-rotation ω e_z has no divergence, so lambda2
+        alone has no effect and builds no ω field (it would be an equation with all coefficients zero)."""
         m = self.micropolar
-        return any(v != 0 for v in (m.mu_r, m.lambda1, m.lambda2))
+        return m.mu_r != 0 or m.lambda1 != 0
 
     @property
     def has_solid(self) -> bool:

@@ -308,13 +308,6 @@ class Stepper:
         pc = ksp.getPC()
         pc.setType("lu")
         pc.setFactorSolverType("mumps")
-        opts = PETSc.Options()
-        prefix = f"cfsi_{id(self)}_"
-        ksp.setOptionsPrefix(prefix)
-        opts[f"{prefix}mat_mumps_icntl_7"] = MUMPS_ORDERING[self.scene.solver.mumps_ordering]
-        opts[f"{prefix}mat_mumps_icntl_14"] = 100  # workspace relaxation (%)
-        opts[f"{prefix}mat_mumps_icntl_24"] = 1  # null-pivot detection (pure-Dirichlet pressure)
-        ksp.setFromOptions()
         self.factorisations = 0
         self.krylov_iterations = 0
         self._reuse = self.motion is not None and self.scene.solver.reuse_factorization
@@ -326,6 +319,15 @@ class Stepper:
             ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
             ksp.getPC().setReusePreconditioner(True)
         return ksp
+
+    def _mumps_options(self):
+        """MUMPS controls, set on the factor matrix (no options database, nothing left unused)."""
+        pc = self.ksp.getPC()
+        pc.setFactorSetUpSolverType()
+        F = pc.getFactorMatrix()
+        F.setMumpsIcntl(7, MUMPS_ORDERING[self.scene.solver.mumps_ordering])  # fill-reducing ordering
+        F.setMumpsIcntl(14, 100)  # workspace relaxation (%)
+        F.setMumpsIcntl(24, 1)  # null-pivot detection (pure-Dirichlet pressure)
 
     def _solve(self, b, x):
         """Direct solve (factorisation reused while the matrix is constant); on a moving mesh, GMRES
@@ -357,6 +359,8 @@ class Stepper:
                 fem_petsc.assemble_matrix(self._A, self.a_form, bcs=self.bcs)
             self._A.assemble()
             self.ksp.setOperators(self._A)
+            if self._alpha_of_A is None:
+                self._mumps_options()
             self._alpha_of_A = alpha
 
     def _histories(self, alpha: float):
