@@ -120,6 +120,30 @@ def cell_dofs(V) -> np.ndarray:
     return dm.array.reshape(-1, dm.links(0).size)
 
 
+def quadrature_space(mesh, degree: int, shape: tuple = ()):
+    """Space of values at the quadrature points of the default rule of ``degree`` (per cell)."""
+    if NEW:
+        el = basix.ufl.quadrature_element(mesh.basix_cell(), value_shape=shape, degree=degree)
+        return dolfinx.fem.functionspace(mesh, el)
+    cell = mesh.ufl_cell()
+    if shape:
+        el = ufl.VectorElement("Quadrature", cell, degree, dim=shape[0], quad_scheme="default")
+    else:
+        el = ufl.FiniteElement("Quadrature", cell, degree, quad_scheme="default")
+    return dolfinx.fem.FunctionSpace(mesh, el)
+
+
+def quadrature_points(degree: int) -> np.ndarray:
+    """Reference points (triangle) of the default rule of ``degree``, in the order of quadrature_space."""
+    import basix
+
+    if NEW:
+        points, _ = basix.make_quadrature(basix.CellType.triangle, degree)
+    else:
+        points, _ = basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.triangle, degree)
+    return np.asarray(points)
+
+
 def interpolation_points(V) -> np.ndarray:
     pts = V.element.interpolation_points
     return pts() if callable(pts) else pts

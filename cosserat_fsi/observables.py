@@ -157,8 +157,12 @@ def _momentum_residual(stepper, u, T, dx):
     rho, inv_dt, alpha = stepper.rho, stepper.inv_dt, stepper.alpha
 
     def residual(phi):
-        return (rho * inv_dt * ufl.inner(alpha * u - stepper.u_hist, phi)
-                + ufl.inner(T, ufl.grad(phi)) - ufl.inner(stepper.f, phi)) * dx
+        inertia = rho * inv_dt * ufl.inner(alpha * u - stepper.u_hist, phi)
+        if dx.subdomain_id() != "everywhere":  # restricted to the fluid cells
+            dxi = stepper.dx_inertia(subdomain_data=stepper.cell_tags)(dx.subdomain_id())
+        else:
+            dxi = stepper.dx_inertia
+        return inertia * dxi + (ufl.inner(T, ufl.grad(phi)) - ufl.inner(stepper.f, phi)) * dx
 
     return residual
 

@@ -5,6 +5,9 @@ Both functions return ``(a, L)`` UFL forms; they are pure (no dolfinx objects ar
 Time discretisation: ``alpha * (u^{n+1} - h) / dt`` with the *history* h built by the characteristics:
 first order (seed): alpha = 1, h = u^n∘X^n; BDF2: alpha = 3/2, h = (4 u^n∘X¹ − u^{n−1}∘X²)/3, so the
 right-hand side is ``alpha * rho / dt * h``. The caller passes ``alpha`` and ``history = alpha * h``.
+The inertia terms use the measure ``dx_inertia``: the history lives at its quadrature points (the feet of
+the quadrature points, evaluated exactly, as FreeFEM's ``convect``), which avoids the extra dissipation
+of interpolating u^n∘X^n at the nodes.
 
 Viscous convention: the seed writes (μ + μ_r) Du:Dũ with Du = ∇u + ∇uᵀ (eq. 18). Its strong form (23) has
 (μ + μ_r)Δu, which the weak form only gives with a factor ½: ∫ μ Du:∇ũ = ½ ∫ μ Du:Dũ. We use the ½; the
@@ -26,21 +29,21 @@ def viscous(u, v, viscosity, form: str):
 
 
 def navier_stokes(u, p, v, q, *, rho, mu, inv_dt, alpha, history, body_force, penalty, dx,
-                  viscous_form="laplacian"):
+                  viscous_form="laplacian", dx_inertia=None):
     """Seed eq. (31) without solid and micro-rotation terms.
 
     a = α ρ/δt (u, ũ) + μ/2 (Du, Dũ) − (p, div ũ) − (p̃, div u) − ζ (p, p̃)   [or μ (∇u, ∇ũ)],
     L = ρ/δt (α h, ũ) + (f, ũ).
     """
-    a = (alpha * rho * inv_dt * ufl.inner(u, v)
-         + viscous(u, v, mu, viscous_form)
-         - p * ufl.div(v) - q * ufl.div(u) - penalty * p * q) * dx
-    L = (rho * inv_dt * ufl.inner(history, v) + ufl.inner(body_force, v)) * dx
+    dx_inertia = dx if dx_inertia is None else dx_inertia
+    a = (alpha * rho * inv_dt * ufl.inner(u, v) * dx_inertia
+         + (viscous(u, v, mu, viscous_form) - p * ufl.div(v) - q * ufl.div(u) - penalty * p * q) * dx)
+    L = rho * inv_dt * ufl.inner(history, v) * dx_inertia + ufl.inner(body_force, v) * dx
     return a, L
 
 
 def micropolar(u, omega, v, tau, *, rho, mu_r, lambda1, inertia, inv_dt, alpha, history, body_couple, dx,
-               viscous_form="laplacian"):
+               viscous_form="laplacian", dx_inertia=None):
     """Micropolar terms: the μ_r parts of seed eq. (31) and the micro-rotation equation (32), 2D.
 
     a = μ_r/2 (Du, Dũ) [or μ_r (∇u, ∇ũ)] − 2μ_r (curl ω, ũ)
@@ -48,11 +51,12 @@ def micropolar(u, omega, v, tau, *, rho, mu_r, lambda1, inertia, inv_dt, alpha, 
     L = ρ I/δt (α h_ω, τ) + (g, τ).
     In 2D ω = ω e_z has zero divergence, so the λ₂ term of eq. (32) vanishes.
     """
-    a = (viscous(u, v, mu_r, viscous_form)
-         - 2 * mu_r * ufl.inner(curl_scalar(omega), v)
-         + alpha * rho * inertia * inv_dt * omega * tau
-         + lambda1 * ufl.inner(ufl.grad(omega), ufl.grad(tau))
-         + 4 * mu_r * omega * tau
-         - 2 * mu_r * curl_vector(u) * tau) * dx
-    L = (rho * inertia * inv_dt * history * tau + body_couple * tau) * dx
+    dx_inertia = dx if dx_inertia is None else dx_inertia
+    a = ((viscous(u, v, mu_r, viscous_form)
+          - 2 * mu_r * ufl.inner(curl_scalar(omega), v)
+          + lambda1 * ufl.inner(ufl.grad(omega), ufl.grad(tau))
+          + 4 * mu_r * omega * tau
+          - 2 * mu_r * curl_vector(u) * tau) * dx
+         + alpha * rho * inertia * inv_dt * omega * tau * dx_inertia)
+    L = rho * inertia * inv_dt * history * tau * dx_inertia + body_couple * tau * dx
     return a, L

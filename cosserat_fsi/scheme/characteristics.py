@@ -42,7 +42,7 @@ class PointLocator:
         nodes = compat.geometry_dofmap(mesh)[:n_cells, :3]
         x0 = x[nodes[:, 0]]
         J = np.stack([x[nodes[:, 1]] - x0, x[nodes[:, 2]] - x0], axis=2)  # (n, 2, 2): columns edges
-        self.x0 = x0
+        self.x0, self.J = x0, J
         self.Jinv = np.linalg.inv(J)
 
     def locate(self, points: np.ndarray, owned_only: bool = False) -> np.ndarray:
@@ -183,6 +183,17 @@ class Characteristics:
         """Values of ``functions`` at the feet of the local V nodes: list of (n_nodes, size) arrays."""
         x, feet = self.feet(transport_velocity, dt)
         return evaluate(self.locator, functions, feet, x, self.comm)
+
+    def quadrature_nodes(self, degree: int):
+        """Quadrature points of the default rule of ``degree`` in every local cell, from the current
+        geometry: (points (n_cells·nq, 3), their cells)."""
+        locator = self.locator
+        ref = compat.quadrature_points(degree)
+        pts = locator.x0[:, None, :] + np.einsum("cij,kj->cki", locator.J, ref)
+        n_cells, nq = pts.shape[:2]
+        out = np.zeros((n_cells * nq, 3))
+        out[:, :2] = pts.reshape(-1, 2)
+        return out, np.repeat(np.arange(n_cells, dtype=np.int32), nq)
 
     def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
         """Reorder values at local V nodes to the local nodes of S."""

@@ -17,7 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..errors import DivergenceError, InputError
 from ..physics import fluid, solid
-from .characteristics import Characteristics
+from .characteristics import Characteristics, evaluate
 from .mesh_motion import MeshMotion, PrescribedMotion
 from .spaces import mixed_space
 
@@ -27,6 +27,7 @@ import ufl
 from petsc4py import PETSc
 
 SCHEMES = {"characteristics1": 1, "characteristics2": 2}
+QUADRATURE_DEGREE = 4  # exact for the P2 mass matrix
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 
@@ -114,13 +115,21 @@ class Stepper:
         V = sp.space("velocity")
         self.u_n = dolfinx.fem.Function(V, name="velocity")
         self.u_nm1 = dolfinx.fem.Function(V)
-        self.u_hist = dolfinx.fem.Function(V)
+        # histories α·h live at quadrature points (FreeFEM's convect) or, optionally, at the P2 nodes
+        self.quadrature_degree = QUADRATURE_DEGREE if scene.time.characteristics == "quadrature" else None
+        if self.quadrature_degree:
+            self.u_hist = dolfinx.fem.Function(compat.quadrature_space(mesh, self.quadrature_degree, (2,)))
+            self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.quadrature_degree})
+        else:
+            self.u_hist = dolfinx.fem.Function(V)
+            self.dx_inertia = ufl.dx(domain=mesh)
         self.p_n = dolfinx.fem.Function(sp.space("pressure"), name="pressure")
         if self.model.micro_rotation:
             S = sp.space("micro_rotation")
             self.omega_n = dolfinx.fem.Function(S, name="micro_rotation")
             self.omega_nm1 = dolfinx.fem.Function(S)
-            self.omega_hist = dolfinx.fem.Function(S)
+            self.omega_hist = dolfinx.fem.Function(
+                compat.quadrature_space(mesh, self.quadrature_degree) if self.quadrature_degree else S)
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.model.micro_rotation else None, comm)
         self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
         self.motion = None
@@ -209,14 +218,14 @@ class Stepper:
         a, L = fluid.navier_stokes(trial[i_u], trial[i_p], test[i_u], test[i_p], rho=self.rho, mu=self.mu,
                                    inv_dt=self.inv_dt, alpha=self.alpha, history=self.u_hist,
                                    body_force=self.f, penalty=self.penalty, dx=dx,
-                                   viscous_form=self.viscous_form)
+                                   viscous_form=self.viscous_form, dx_inertia=self.dx_inertia)
         if self.model.micro_rotation:
             i_w = sp.index("micro_rotation")
             a_m, L_m = fluid.micropolar(trial[i_u], trial[i_w], test[i_u], test[i_w], rho=self.rho,
                                         mu_r=self.mu_r, lambda1=self.lambda1, inertia=self.inertia,
                                         inv_dt=self.inv_dt, alpha=self.alpha, history=self.omega_hist,
                                         body_couple=self.g, dx=dx,
-                                        viscous_form=self.viscous_form)
+                                        viscous_form=self.viscous_form, dx_inertia=self.dx_inertia)
             a, L = a + a_m, L + L_m
         if self.model.solid:
             dx_solid = ufl.dx(domain=self.mesh, subdomain_data=self.cell_tags)(SOLID)
@@ -242,14 +251,19 @@ class Stepper:
         self._updates = []  # callables t -> None that refresh time-dependent boundary values
         self.bcs = []
 
-        def add(space_name, facet_names, values=None, scale=None, exact=None):
+        def add(space_name, facet_names, values=None, scale=None, exact=None, kick=None):
+            """``kick = (values2, scale2)``: a second, transient part added to ``values``·scale(t)."""
             Vs = sp.space(space_name)
             g = dolfinx.fem.Function(Vs)
             if values is not None:
                 g.interpolate(values)
                 if scale is not None:
                     g0 = g.x.array.copy()
-                    self._updates.append(lambda t: g.x.array.__setitem__(slice(None), scale(t) * g0))
+                    g1, scale1 = np.zeros_like(g0), (lambda t: 0.0)
+                    if kick is not None:
+                        g.interpolate(kick[0])
+                        g1, scale1 = g.x.array.copy(), kick[1]
+                    self._updates.append(lambda t: g.x.array.__setitem__(slice(None), scale(t) * g0 + scale1(t) * g1))
             if exact is not None:
                 self._updates.append(lambda t: g.interpolate(lambda x: exact(x, t)))
             dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim, self._facets(*facet_names))
@@ -279,8 +293,15 @@ class Stepper:
             def lid(x):
                 return np.vstack([np.full_like(x[0], inflow.u_mean), np.zeros_like(x[0])])
 
+            def tilt(x):  # antisymmetric about mid-height: breaks the symmetry of the start-up
+                return profile(x) * (2.0 * (x[1] - y0) / H - 1.0)
+
+            def bump(t):  # ε sin(π t / T) during the ramp, then 0
+                return inflow.asymmetry * np.sin(np.pi * t / ramp_time) if 0 < t < ramp_time else 0.0
+
+            kick = (tilt, bump) if inflow.asymmetry and not moving_lid else None
             add("velocity", ("lid",) if moving_lid else ("inlet",), values=lid if moving_lid else profile,
-                scale=lambda t: ramp(t, ramp_time))
+                scale=lambda t: ramp(t, ramp_time), kick=kick)
         if self.model.micro_rotation:
             add("micro_rotation", no_slip + ("lid",))
 
@@ -364,29 +385,55 @@ class Stepper:
             self._alpha_of_A = alpha
 
     def _histories(self, alpha: float):
-        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet)."""
-        chars = self.chars
-        u_nodes = chars.nodal(self.u_n)
-        fns_n = [self.u_n] + ([self.omega_n] if self.model.micro_rotation else [])
+        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet), and the foot
+        values of d (at the nodes, for the displacement update)."""
+        chars, micro = self.chars, self.model.micro_rotation
+        fns_n = [self.u_n] + ([self.omega_n] if micro else [])
+        fns_nm1 = [self.u_nm1] + ([self.omega_nm1] if micro else [])
+        if self.model.solid:  # ALE feet of the nodes: relative to the mesh velocity
+            transport = chars.nodal(self.u_n) - chars.nodal(self.mesh_velocity)
+            self._d_foot = chars.backtrack(transport, self.dt, [self.d_n])[0]
+        if self.quadrature_degree:
+            x, cells = chars.quadrature_nodes(self.quadrature_degree)
+
+            def at_x(f):
+                return f.eval(x, cells).reshape(len(x), -1)
+        else:
+            x, cells = chars.nodes(), None
+
+            def at_x(f):
+                return chars.nodal(f)
+        u_x = at_x(self.u_n)
         if alpha == 1.0:
-            transport = u_nodes - chars.nodal(self.mesh_velocity)  # ALE: relative to the mesh
-            extra = [self.d_n] if self.model.solid else []
-            vals = chars.backtrack(transport, self.dt, fns_n + extra)
-            hist = vals[: len(fns_n)]
-            if self.model.solid:
-                self._d_foot = vals[-1]
+            w_x = at_x(self.mesh_velocity) if self.motion is not None else 0.0
+            hist = self._at_feet(x, x - self.dt * _pad(u_x - w_x), fns_n)
         else:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
-            u_star = 2.0 * u_nodes - chars.nodal(self.u_nm1)
-            vals1 = chars.backtrack(u_star, self.dt, fns_n)
-            fns_nm1 = [self.u_nm1] + ([self.omega_nm1] if self.model.micro_rotation else [])
-            vals2 = chars.backtrack(u_star, 2.0 * self.dt, fns_nm1)
+            u_star = _pad(2.0 * u_x - at_x(self.u_nm1))
+            vals1 = self._at_feet(x, x - self.dt * u_star, fns_n)
+            vals2 = self._at_feet(x, x - 2.0 * self.dt * u_star, fns_nm1)
             hist = [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
-        n = chars.n_nodes
-        self.u_hist.x.array[: n * 2] = hist[0].ravel()
-        self.u_hist.x.scatter_forward()
-        if self.model.micro_rotation:
-            self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
-            self.omega_hist.x.scatter_forward()
+        if self.quadrature_degree:
+            self._set_quadrature(self.u_hist, hist[0])
+            if micro:
+                self._set_quadrature(self.omega_hist, hist[1])
+        else:
+            n = chars.n_nodes
+            self.u_hist.x.array[: n * 2] = hist[0].ravel()
+            self.u_hist.x.scatter_forward()
+            if micro:
+                self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
+                self.omega_hist.x.scatter_forward()
+
+    def _at_feet(self, anchors, feet, functions):
+        return evaluate(self.chars.locator, functions, feet, anchors, self.comm)
+
+    @staticmethod
+    def _set_quadrature(f, values):
+        """Write values at the quadrature points (cell-major, as quadrature_nodes) into ``f``."""
+        dofs = compat.cell_dofs(f.function_space)
+        bs = f.function_space.dofmap.index_map_bs
+        arr = f.x.array.reshape(-1, bs)
+        arr[dofs[: len(values) // dofs.shape[1]].ravel()] = values.reshape(-1, bs)
 
     def advance(self, before_move=None):
         """One time step t^n → t^{n+1}: solve on Ω^n, update d, then move the mesh to Ω^{n+1}.
@@ -451,3 +498,7 @@ class Stepper:
         out["total"] = sum(out.values())
         return out
 
+
+def _pad(v):
+    """(n, 2) → (n, 3) with z = 0 (points and displacements in dolfinx are 3D)."""
+    return np.hstack([v, np.zeros((len(v), 1))]) if np.ndim(v) == 2 and v.shape[1] == 2 else v
