@@ -75,12 +75,6 @@ def num_owned_cells(mesh) -> int:
     return mesh.topology.index_map(mesh.topology.dim).size_local
 
 
-def meshtags(mesh, dim: int, entities, values):
-    order = np.argsort(entities)
-    return dolfinx.mesh.meshtags(mesh, dim, np.asarray(entities, np.int32)[order],
-                                 np.asarray(values, np.int32)[order])
-
-
 # ------------------------------------------------------------------------------- elements and spaces
 def element(mesh, family: str, degree: int, shape: tuple | None = None):
     """A (possibly vector-valued) Lagrange/DG element on the mesh's cell."""
@@ -144,11 +138,6 @@ def quadrature_points(degree: int) -> np.ndarray:
     return np.asarray(points)
 
 
-def interpolation_points(V) -> np.ndarray:
-    pts = V.element.interpolation_points
-    return pts() if callable(pts) else pts
-
-
 # -------------------------------------------------------------------------------- forms and PETSc
 JIT_OPTIONS = {"cffi_extra_compile_args": ["-O2", "-march=native"], "cffi_libraries": ["m"]}
 
@@ -170,11 +159,6 @@ def create_vector(L_form, V):
 def petsc_vec(u):
     """The PETSc vector wrapping a Function's values."""
     return u.x.petsc_vec if NEW else u.vector
-
-
-def expression(expr, V):
-    """A compiled ``dolfinx.fem.Expression`` at the interpolation points of ``V``."""
-    return dolfinx.fem.Expression(expr, interpolation_points(V))
 
 
 # ----------------------------------------------------------------------------------- point location

@@ -123,7 +123,7 @@ def _force_forms(stepper, u, T, n, ds, body_tags):
         residual = _momentum_residual(stepper, u, T, ufl.dx(domain=stepper.mesh))
         surface = [traction[i] * ds(body_tags) for i in range(2)]
     else:
-        chi = stepper._cellwise(1.0, 0.0)  # fluid indicator
+        chi = stepper.cellwise(1.0, 0.0)  # fluid indicator
         dx_fluid = ufl.dx(domain=stepper.mesh, subdomain_data=stepper.cell_tags)(FLUID)
         residual = _momentum_residual(stepper, u, T, dx_fluid)
         dS = ufl.Measure("dS", domain=stepper.mesh, subdomain_data=stepper.facet_tags)(TAGS["interface"])
@@ -136,7 +136,7 @@ def _body_test_functions(stepper, body_tags):
     """φ_x, φ_y: P2 fields equal to e_x, e_y on the body's boundary nodes and 0 at all other nodes."""
     V = stepper.space.space("velocity")
     fdim = stepper.mesh.topology.dim - 1
-    facets = stepper._facets(*(name for name, tag in TAGS.items() if tag in body_tags))
+    facets = stepper.facets(*(name for name, tag in TAGS.items() if tag in body_tags))
     phis = []
     for i in range(2):
         Vi, to_V = compat.collapse(V.sub(i))

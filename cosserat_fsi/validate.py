@@ -180,6 +180,18 @@ def cheapest(cases, runs: Path) -> list[str]:
             for group, b in best.items()]
 
 
+def _save(fig, out: Path, name: str) -> str:
+    """Save a figure as docs/figures/<name> and return its path relative to ``out``."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    path = out / "figures" / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return str(path.relative_to(out))
+
+
 def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     import matplotlib
 
@@ -208,12 +220,7 @@ def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     ax.set_ylabel("lift (N)")
     ax.legend(fontsize=7, loc="upper right")
     ax.set_title("CFD3: lift over the last simulated second")
-    fig.tight_layout()
-    path = out / "figures" / "cfd3_lift.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return str(path.relative_to(out))
+    return _save(fig, out, "cfd3_lift.png")
 
 
 def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -> str | None:
@@ -241,12 +248,7 @@ def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -
     ax.set_ylabel("uy(A) (m)")
     ax.set_title(title)
     ax.legend(fontsize=7, loc="lower left")
-    fig.tight_layout()
-    path = out / "figures" / name
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return str(path.relative_to(out))
+    return _save(fig, out, name)
 
 
 def plot_c1_sweep(runs: Path, out: Path) -> str | None:
@@ -278,12 +280,7 @@ def plot_c1_sweep(runs: Path, out: Path) -> str | None:
     ax2.set_xlabel("c1 (μ_s = 2 c1)")
     ax2.set_ylabel("amplitude of uy(A) (m)")
     ax2.set_title("seed fig. 6: amplitude against c1")
-    fig.tight_layout()
-    path = out / "figures" / "seed_fig5_6_c1_sweep.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return str(path.relative_to(out))
+    return _save(fig, out, "seed_fig5_6_c1_sweep.png")
 
 
 def write_report(cases, runs: Path, out: Path) -> Path:

@@ -147,7 +147,7 @@ class Stepper:
         self._forms()
         self._boundary_conditions()
         self.set_initial()
-        self._A = None
+        self.A = None
         self._alpha_of_A = None
         self.ksp = self._make_solver()
         self.b = compat.create_vector(self.L_form, sp.W)
@@ -156,7 +156,7 @@ class Stepper:
     def _const(self, value):
         return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
 
-    def _cellwise(self, fluid_value, solid_value, shape=()):
+    def cellwise(self, fluid_value, solid_value, shape=()):
         """A DG0 field: ``fluid_value`` on fluid cells, ``solid_value`` on solid cells."""
         Q = compat.function_space(self.mesh, "DG", 0, shape=shape or None)
         field = dolfinx.fem.Function(Q)
@@ -179,10 +179,10 @@ class Stepper:
         self.mu = self._const(s.fluid.mu if s.fluid is not None else 0.0)
         body = np.asarray(s.fluid.body_force if s.fluid is not None else (0.0, 0.0), dtype=PETSc.ScalarType)
         if self.model.solid:
-            self.rho = self._cellwise(rho_f, s.solid.rho)
-            self.f = self._cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
+            self.rho = self.cellwise(rho_f, s.solid.rho)
+            self.f = self.cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
             if s.solid.gravity and s.solid.gravity_ramp_time > 0:
-                fluid_part = self._cellwise(body, (0.0, 0.0), shape=(2,)).x.array.copy()
+                fluid_part = self.cellwise(body, (0.0, 0.0), shape=(2,)).x.array.copy()
                 full = self.f.x.array.copy()
                 ramp_time = s.solid.gravity_ramp_time
                 self._gravity_update = lambda t: self.f.x.array.__setitem__(
@@ -236,7 +236,7 @@ class Stepper:
                 L = L + solid.volume_correction(test[i_p], self.d_n, dt=self.dt_const, dx_solid=dx_solid)
         self.a_form, self.L_form = compat.form(a), compat.form(L)
 
-    def _facets(self, *names):
+    def facets(self, *names):
         ft = self.facet_tags
         tags = [TAGS[n] for n in names]
         return np.unique(ft.indices[np.isin(ft.values, tags)]).astype(np.int32)
@@ -266,7 +266,7 @@ class Stepper:
                     self._updates.append(lambda t: g.x.array.__setitem__(slice(None), scale(t) * g0 + scale1(t) * g1))
             if exact is not None:
                 self._updates.append(lambda t: g.interpolate(lambda x: exact(x, t)))
-            dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim, self._facets(*facet_names))
+            dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim, self.facets(*facet_names))
             self.bcs.append(dolfinx.fem.dirichletbc(g, dofs, sp.sub(space_name)))
 
         if self.exact is not None:
@@ -315,7 +315,7 @@ class Stepper:
             values = self.u_n.x.array.reshape(-1, 2)
             values[self.solid_dofs] = self.scene.solid.initial_velocity
             fixed = dolfinx.fem.locate_dofs_topological(self.u_n.function_space, self.mesh.topology.dim - 1,
-                                                        self._facets(*self.no_slip_boundaries()))
+                                                        self.facets(*self.no_slip_boundaries()))
             values[fixed] = 0.0  # the clamp stays at rest
         if self.exact is None:
             return
@@ -361,7 +361,7 @@ class Stepper:
         if self.factorisations == 0 or ksp.getConvergedReason() <= 0:
             if self.factorisations > 0:  # the old factorisation no longer does: refactorise
                 ksp.getPC().setReusePreconditioner(False)
-                ksp.setOperators(self._A)
+                ksp.setOperators(self.A)
                 ksp.solve(b, x)
                 ksp.getPC().setReusePreconditioner(True)
             self.factorisations += 1
@@ -369,17 +369,17 @@ class Stepper:
     # --------------------------------------------------------------------------------- one step
     def _matrix(self, alpha: float):
         """Assemble (and have MUMPS factorise) the matrix when α changed or the mesh moved."""
-        if self._A is not None and self._alpha_of_A == alpha and self.motion is None:
+        if self.A is not None and self._alpha_of_A == alpha and self.motion is None:
             return
         with self.timers("assemble_matrix"):
             self.alpha.value = alpha
-            if self._A is None:
-                self._A = fem_petsc.assemble_matrix(self.a_form, bcs=self.bcs)
+            if self.A is None:
+                self.A = fem_petsc.assemble_matrix(self.a_form, bcs=self.bcs)
             else:
-                self._A.zeroEntries()
-                fem_petsc.assemble_matrix(self._A, self.a_form, bcs=self.bcs)
-            self._A.assemble()
-            self.ksp.setOperators(self._A)
+                self.A.zeroEntries()
+                fem_petsc.assemble_matrix(self.A, self.a_form, bcs=self.bcs)
+            self.A.assemble()
+            self.ksp.setOperators(self.A)
             if self._alpha_of_A is None:
                 self._mumps_options()
             self._alpha_of_A = alpha
