@@ -45,10 +45,27 @@ class PointLocator:
         self.x0, self.J = x0, J
         self.Jinv = np.linalg.inv(J)
 
-    def locate(self, points: np.ndarray, owned_only: bool = False) -> np.ndarray:
-        """Local cell index per point (−1 if none). ``points`` has shape (n, 3)."""
+    def _inside(self, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+        """Barycentric test: is each point in the given local cell?"""
+        lam = np.einsum("nij,nj->ni", self.Jinv[cells], points[:, :2] - self.x0[cells])
+        return np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1.0 - lam[:, 0] - lam[:, 1]) >= -_TOL
+
+    def locate(self, points: np.ndarray, owned_only: bool = False, hint=None) -> np.ndarray:
+        """Local cell index per point (−1 if none). ``points`` has shape (n, 3).
+
+        ``hint``: a likely cell per point (e.g. the cell a foot started from), tested first; only the
+        points outside it go through the bounding-box tree.
+        """
         cells = np.full(len(points), -1, dtype=np.int32)
         if len(points) == 0:
+            return cells
+        if hint is not None:
+            hit = self._inside(points, hint)
+            if owned_only:
+                hit &= hint < self.num_owned
+            cells[hit] = hint[hit]
+            rest = np.flatnonzero(~hit)
+            cells[rest] = self.locate(points[rest], owned_only)
             return cells
         offsets, candidates = compat.collision_candidates(self.tree, points)
         counts = np.diff(offsets)
@@ -58,10 +75,7 @@ class PointLocator:
             point_of, candidates = point_of[keep], candidates[keep]
         if len(candidates) == 0:
             return cells
-        d = points[point_of, :2] - self.x0[candidates]
-        lam = np.einsum("nij,nj->ni", self.Jinv[candidates], d)
-        lam_min = np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1.0 - lam[:, 0] - lam[:, 1])
-        inside = lam_min >= -_TOL
+        inside = self._inside(points[point_of], candidates)
         # first inside candidate per point (pairs are sorted by point)
         pts_in, first = np.unique(point_of[inside], return_index=True)
         cells[pts_in] = candidates[inside][first]
@@ -69,14 +83,15 @@ class PointLocator:
 
 
 def evaluate(locator: PointLocator, functions, points: np.ndarray, anchors: np.ndarray,
-             comm=MPI.COMM_WORLD, bisections: int = 12):
+             comm=MPI.COMM_WORLD, bisections: int = 12, hint=None):
     """Values of ``functions`` at ``points`` (n, 3), parallel; outside points are pulled to ``anchors``.
 
-    ``anchors`` are points known to be in a local cell (the nodes the feet start from). A foot outside
+    ``anchors`` are points known to be in a local cell (the nodes the feet start from; ``hint``: the
+    cells they are in, if known). A foot outside
     the domain is replaced by the last inside point of the segment anchor → foot, found by bisection to
     2^-bisections of its length. Returns a list of (n, value_size) arrays, one per function. Collective.
     """
-    values, found = _evaluate_anywhere(locator, functions, points, comm)
+    values, found = _evaluate_anywhere(locator, functions, points, comm, hint)
     out = np.flatnonzero(~found)
     if comm.allreduce(len(out), op=MPI.SUM) == 0:
         return values
@@ -95,13 +110,13 @@ def evaluate(locator: PointLocator, functions, points: np.ndarray, anchors: np.n
     return values
 
 
-def _evaluate_anywhere(locator, functions, pts, comm):
+def _evaluate_anywhere(locator, functions, pts, comm, hint=None):
     """Values at points searched among local cells, then among the other ranks' owned cells. Collective.
 
     Returns (list of (n, size) arrays, found mask).
     """
     values = [np.zeros((len(pts), _value_count(f))) for f in functions]
-    cells = locator.locate(pts)
+    cells = locator.locate(pts, hint=hint)
     found = cells >= 0
     for f, val in zip(functions, values):
         if found.any():

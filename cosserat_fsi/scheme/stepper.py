@@ -406,11 +406,11 @@ class Stepper:
         u_x = at_x(self.u_n)
         if alpha == 1.0:
             w_x = at_x(self.mesh_velocity) if self.motion is not None else 0.0
-            hist = self._at_feet(x, x - self.dt * _pad(u_x - w_x), fns_n)
+            hist = self._at_feet(x, x - self.dt * _pad(u_x - w_x), fns_n, cells)
         else:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
             u_star = _pad(2.0 * u_x - at_x(self.u_nm1))
-            vals1 = self._at_feet(x, x - self.dt * u_star, fns_n)
-            vals2 = self._at_feet(x, x - 2.0 * self.dt * u_star, fns_nm1)
+            vals1 = self._at_feet(x, x - self.dt * u_star, fns_n, cells)
+            vals2 = self._at_feet(x, x - 2.0 * self.dt * u_star, fns_nm1, cells)
             hist = [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
         if self.quadrature_degree:
             self._set_quadrature(self.u_hist, hist[0])
@@ -424,8 +424,8 @@ class Stepper:
                 self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
                 self.omega_hist.x.scatter_forward()
 
-    def _at_feet(self, anchors, feet, functions):
-        return evaluate(self.chars.locator, functions, feet, anchors, self.comm)
+    def _at_feet(self, anchors, feet, functions, cells=None):
+        return evaluate(self.chars.locator, functions, feet, anchors, self.comm, hint=cells)
 
     @staticmethod
     def _set_quadrature(f, values):
