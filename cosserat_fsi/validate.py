@@ -50,8 +50,8 @@ CFD12 = {"drag": 0.01, "lift": 0.05}
 CFD3 = {"drag.mean": 0.01, "lift.amplitude": 0.05, "lift.frequency": 0.02}
 
 CASES = [
-    Case("st2d1-L1-c2-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(1, "characteristics2", 0.01, 20), ST21),
-    Case("st2d1-L2-c2-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(2, "characteristics2", 0.01, 20), ST21),
+    Case("st2d1-L1-c2-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(1, "characteristics2", 0.01, 12), ST21),
+    Case("st2d1-L2-c2-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(2, "characteristics2", 0.01, 12), ST21),
     Case("st2d1-L2-c1-dt0.01", "configs/schaefer_turek_2d1.yaml", _c(2, "characteristics1", 0.01, 20), ST21),
     Case("st2d1-L3-c2-dt0.02", "configs/schaefer_turek_2d1.yaml", _c(3, "characteristics2", 0.02, 20), ST21),
     Case("cfd1-L1-c2-dt0.02", "configs/turek_hron_cfd1.yaml", _c(1, "characteristics2", 0.02, 25), CFD12),
@@ -106,9 +106,12 @@ C1_VALUES = (0.5e6, 0.75e6, 1.0e6, 1.5e6, 2.0e6)
 SWEEP_CASES = [Case(f"c1sweep-{c1:.3g}", "configs/turek_hron_fsi3.yaml",
                     {"geometry.level": "seed", "time.dt": 0.002, "time.t_end": 6, "solid.mu_s": 2 * c1}, {})
                for c1 in C1_VALUES]
-_LAST = ("cfd3-L2-c2-dt0.0025", "st2d1-L3-c2-dt0.02")  # the most expensive ones run last
-ALL_CASES = ([c for c in CASES if c.id not in _LAST] + FSI_CASES[:-2] + SWEEP_CASES
-             + [c for c in CASES if c.id in _LAST] + FSI_CASES[-2:])
+_FIRST = ("st2d1-L1-c2-dt0.01", "st2d1-L2-c2-dt0.01", "cfd1-L1-c2-dt0.02", "cfd2-L1-c2-dt0.005",
+          "cfd2-L1-c2-dt0.0025", "cfd3-seed-c1-dt0.005", "cfd3-seed-c2-dt0.005", "cfd3-L1-c2-dt0.0025",
+          "cfd3-seed-c1-dt0.001", "csm1-L1-eq", "csm2-L1-eq", "fsi1-L1-dt0.01", "seed-dt0.005",
+          "fsi3-seed-dt0.001")  # the cheapest complete ladder first; the rest after
+_ALL = CASES + FSI_CASES + SWEEP_CASES
+ALL_CASES = [c for i in _FIRST for c in _ALL if c.id == i] + [c for c in _ALL if c.id not in _FIRST]
 
 
 def run_case(case: Case, runs: Path, python: str) -> Path:

@@ -27,7 +27,6 @@ import ufl
 from petsc4py import PETSc
 
 SCHEMES = {"characteristics1": 1, "characteristics2": 2}
-QUADRATURE_DEGREE = 4  # exact for the P2 mass matrix
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 
@@ -116,7 +115,7 @@ class Stepper:
         self.u_n = dolfinx.fem.Function(V, name="velocity")
         self.u_nm1 = dolfinx.fem.Function(V)
         # histories α·h live at quadrature points (FreeFEM's convect) or, optionally, at the P2 nodes
-        self.quadrature_degree = QUADRATURE_DEGREE if scene.time.characteristics == "quadrature" else None
+        self.quadrature_degree = scene.time.quadrature_degree if scene.time.characteristics == "quadrature" else None
         if self.quadrature_degree:
             self.u_hist = dolfinx.fem.Function(compat.quadrature_space(mesh, self.quadrature_degree, (2,)))
             self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.quadrature_degree})
