@@ -65,12 +65,12 @@ PYTEST_FLAGS := -q -rs --durations=15
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
 .PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
-        test-mpi-latest validate sweep-c1 study info clean distclean
+        test-mpi-latest validate sweep-c1 info clean distclean
 
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
 	@echo "make test    both stacks: serial pytest, then -m mpi under 2 ranks"
-	@echo "make setup | setup-latest | info | validate | study | clean | distclean"
+	@echo "make setup | setup-latest | info | validate | sweep-c1 | clean | distclean"
 
 # ------------------------------------------------------------------------------------ setup
 setup: apt $(STAMP_DEBIAN)
@@ -157,9 +157,6 @@ validate: $(RUN_SETUP)
 # Seed figures 5-6: amplitude of the flag tip against c1 (docs/figures/seed_fig5_6_c1_sweep.png)
 sweep-c1: $(RUN_SETUP)
 	$(PY) -m cosserat_fsi.validate --only 'c1sweep*'
-
-study: $(RUN_SETUP)
-	$(PY) -m cosserat_fsi.study
 
 info: setup setup-latest
 	@echo "=== Debian stack ($(VENV)) ==="
