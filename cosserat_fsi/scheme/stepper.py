@@ -17,7 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..errors import DivergenceError, InputError
 from ..physics import fluid, solid
-from .characteristics import Characteristics, evaluate
+from .characteristics import Characteristics, eval_at, evaluate
 from .mesh_motion import MeshMotion, PrescribedMotion
 from .spaces import mixed_space
 
@@ -396,7 +396,7 @@ class Stepper:
             x, cells = chars.quadrature_nodes(self.quadrature_degree)
 
             def at_x(f):
-                return f.eval(x, cells).reshape(len(x), -1)
+                return eval_at(chars.locator, f, x, cells)
         else:
             x, cells = chars.nodes(), None
 
