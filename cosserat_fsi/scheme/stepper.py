@@ -361,6 +361,7 @@ class Stepper:
             if self.factorisations > 0:  # the old factorisation no longer does: refactorise
                 ksp.getPC().setReusePreconditioner(False)
                 ksp.setOperators(self.A)
+                x.set(0.0)  # a failed GMRES may have left NaN in the initial guess
                 ksp.solve(b, x)
                 ksp.getPC().setReusePreconditioner(True)
             self.factorisations += 1
