@@ -212,7 +212,7 @@ def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     drawn = False
     for case in cases:
         csv = runs / case.id / "timeseries.csv"
-        if case.id.startswith("cfd3") and csv.exists():
+        if case.id.startswith("cfd3") and (runs / case.id / "summary.json").exists():
             ts = read_timeseries(csv)
             keep = ts["t"] >= ts["t"][-1] - 1.0
             ax.plot(ts["t"][keep], ts["lift"][keep], label=case.id, lw=1)
@@ -240,7 +240,7 @@ def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -
     from .references import reference_for
 
     series = [(c.id, runs / c.id / "timeseries.csv") for c in cases if c.id.startswith(prefix)]
-    series = [(i, p) for i, p in series if p.exists()]
+    series = [(i, p) for i, p in series if (p.parent / "summary.json").exists()]
     if not series:
         return None
     ref = reference_for("turek_hron_fsi3")["uy_A"]
@@ -268,7 +268,7 @@ def plot_c1_sweep(runs: Path, out: Path) -> str | None:
     from .io import read_timeseries
 
     done = [(c1, runs / f"c1sweep-{c1:.3g}" / "timeseries.csv") for c1 in C1_VALUES]
-    done = [(c1, p) for c1, p in done if p.exists()]
+    done = [(c1, p) for c1, p in done if (p.parent / "summary.json").exists()]
     if not done:
         return None
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
