@@ -59,6 +59,11 @@ class Observables:
             elastic = elastic_energy_density(stepper.d_n, stepper.mu_s) * dx(SOLID)
             self._energy_forms = [compat.form(kinetic), compat.form(elastic)]
             self.columns += ["energy_kinetic", "energy_elastic", "energy_total"]
+        self._flow_rate = None
+        outlet = TAGS["outlet"]
+        if scene.has_fluid and self.comm.allreduce(int(np.any(ft.values == outlet)), op=MPI.MAX):
+            self._flow_rate = compat.form(ufl.inner(u, n) * ds(outlet))  # ∫_outlet u·n ds
+            self.columns.append("flow_rate")
         self._dp = scene.geometry.name == "schaefer_turek"
         if self._dp:
             self.columns.append("dp")
@@ -78,6 +83,8 @@ class Observables:
             kinetic, elastic = (self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM)
                                 for f in self._energy_forms)
             out.update(energy_kinetic=kinetic, energy_elastic=elastic, energy_total=kinetic + elastic)
+        if self._flow_rate is not None:
+            out["flow_rate"] = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._flow_rate), op=MPI.SUM)
         if self._dp:
             st = self.stepper
             p = probe(st.chars.locator, [st.p_n], DP_POINTS, self.comm)[0][:, 0]

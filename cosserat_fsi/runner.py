@@ -136,6 +136,8 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
             "periodic": _periodic(series),
         }
+        if "omega_max" in series and len(series["omega_max"]):
+            summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")

@@ -19,6 +19,7 @@ from mpi4py import MPI
 
 from cosserat_fsi import compat
 from cosserat_fsi.config import validate_scene
+from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.stress import cauchy_stress
 from cosserat_fsi.runner import load_mesh
 from cosserat_fsi.scheme.characteristics import probe
@@ -286,6 +287,9 @@ def test_poiseuille_convergence_and_values():
     assert abs(u_c - 0.28473571) < 1e-6 and abs(w_c - 0.05168046) < 1e-6, (u_c, w_c)
     Q = _integral(stepper.comm, stepper.u_n[0] * ds(2))
     assert abs(Q - 0.37072084) < 1e-6 and abs(exact.flow_rate() - 0.37072084) < 1e-8, Q
+    observed = Observables(stepper).evaluate()  # the run's `flow_rate` and `omega_max` columns
+    assert abs(observed["flow_rate"] - Q) < 1e-12 * Q, observed
+    assert observed["omega_max"] == pytest.approx(np.abs(stepper.omega_n.x.array).max(), rel=1e-14)
     assert abs((p_in - p_out) - G * L) < 1e-5 * G * L, p_in - p_out
 
 
