@@ -211,22 +211,10 @@ class Characteristics:
         """Local node coordinates of V (recomputed: the mesh may move)."""
         return self.V.tabulate_dof_coordinates()[: self.n_nodes]
 
-    def feet(self, velocity_nodal: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Nodes x and feet x − dt·v for the local nodal velocity v (shape (n_nodes, 2))."""
-        x = self.nodes()
-        feet = x.copy()
-        feet[:, :2] -= dt * velocity_nodal
-        return x, feet
-
     def nodal(self, f) -> np.ndarray:
         """Local nodal values of a function on V, shape (n_nodes, bs)."""
         bs = f.function_space.dofmap.index_map_bs
         return f.x.array[: self.n_nodes * bs].reshape(-1, bs)
-
-    def backtrack(self, transport_velocity: np.ndarray, dt: float, functions):
-        """Values of ``functions`` at the feet of the local V nodes: list of (n_nodes, size) arrays."""
-        x, feet = self.feet(transport_velocity, dt)
-        return evaluate(self.locator, functions, feet, x, self.comm)
 
     def quadrature_nodes(self, degree: int):
         """Quadrature points of the default rule of ``degree`` in every local cell, from the current

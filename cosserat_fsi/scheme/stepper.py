@@ -385,14 +385,10 @@ class Stepper:
             self._alpha_of_A = alpha
 
     def _histories(self, alpha: float):
-        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet), and the foot
-        values of d (at the nodes, for the displacement update)."""
+        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet)."""
         chars, micro = self.chars, self.model.micro_rotation
         fns_n = [self.u_n] + ([self.omega_n] if micro else [])
         fns_nm1 = [self.u_nm1] + ([self.omega_nm1] if micro else [])
-        if self.model.solid:  # ALE feet of the nodes: relative to the mesh velocity
-            transport = chars.nodal(self.u_n) - chars.nodal(self.mesh_velocity)
-            self._d_foot = chars.backtrack(transport, self.dt, [self.d_n])[0]
         if self.quadrature_degree:
             x, cells = chars.quadrature_nodes(self.quadrature_degree)
 
@@ -466,11 +462,17 @@ class Stepper:
         if self.model.micro_rotation:
             self.omega_nm1.x.array[:] = self.omega_n.x.array
             self.omega_n.x.array[:] = self.w.x.array[sp.dofs("micro_rotation")]
-        if self.model.solid:  # seed §5.1: d^{n+1} = d^n∘X^n + δt u^{n+1} (on the solid nodes)
+        if self.model.solid:
+            # seed §5.1: d^{n+1} = d^n∘X^n + δt u^{n+1}. The solid nodes move with the material, so in
+            # their frame X^n is the identity: d^{n+1}_i = d^n_i + δt u^{n+1}_i (exact at the vertices;
+            # at the P2 mid-edge nodes up to O(δt h² ∇²u) per step). Back-tracking d with the ALE
+            # velocity u − w instead (w the P1 mesh velocity) gives the same vertices but lets the
+            # mid-edge values drift from them; on the seed's FSI3 run that drift triggers a local
+            # pressure blow-up at the flag tip (t = 6.09 at δt = 0.005, earlier at smaller δt).
             d = self.d_n.x.array.reshape(-1, 2)
             u = self.u_n.x.array.reshape(-1, 2)
             nodes = self.solid_dofs
-            d[nodes] = self._d_foot[nodes] + self.dt * u[nodes]
+            d[nodes] += self.dt * u[nodes]
             self.d_n.x.scatter_forward()
         self.t = t_new
         self.step_count += 1
