@@ -65,12 +65,12 @@ PYTEST_FLAGS := -q -rs --durations=15
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
 .PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
-        test-mpi-latest validate sweep-c1 info clean distclean
+        test-mpi-latest validate sweep-c1 figures info clean distclean
 
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
 	@echo "make test    both stacks: serial pytest, then -m mpi under 2 ranks"
-	@echo "make setup | setup-latest | info | validate | sweep-c1 | clean | distclean"
+	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | clean | distclean"
 
 # ------------------------------------------------------------------------------------ setup
 setup: apt $(STAMP_DEBIAN)
@@ -157,6 +157,10 @@ validate: $(RUN_SETUP)
 # Seed figures 5-6: amplitude of the flag tip against c1 (docs/figures/seed_fig5_6_c1_sweep.png)
 sweep-c1: $(RUN_SETUP)
 	$(PY) -m cosserat_fsi.validate --only 'c1sweep*'
+
+# The seed's figures 3-10 into docs/figures and docs/seed_reproduction.md (runs resume; ~30 min on 2 cores)
+figures: $(RUN_SETUP)
+	$(PY) -m cosserat_fsi.seed_figures
 
 info: setup setup-latest
 	@echo "=== Debian stack ($(VENV)) ==="

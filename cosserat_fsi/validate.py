@@ -123,7 +123,7 @@ _ALL = CASES + FSI_CASES + SWEEP_CASES
 ALL_CASES = [c for i in _FIRST for c in _ALL if c.id == i] + [c for c in _ALL if c.id not in _FIRST]
 
 
-def run_case(case: Case, runs: Path, python: str) -> Path:
+def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
     """Run one case (unless it already finished) and return its output folder."""
     out = runs / case.id
     summary = out / "summary.json"
@@ -131,7 +131,7 @@ def run_case(case: Case, runs: Path, python: str) -> Path:
         return out
     out.mkdir(parents=True, exist_ok=True)
     cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / case.config), "--out", str(out),
-           "--no-progress", "--set", "output.fields=false", *case.args()]
+           "--no-progress", "--set", f"output.fields={str(fields).lower()}", *case.args()]
     with open(out / "stdout.log", "w") as log:
         subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
     return out
