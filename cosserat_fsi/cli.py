@@ -1,4 +1,4 @@
-"""Command line: ``cosserat-fsi run|mesh|info``.
+"""Command line: ``cosserat-fsi run|mesh|plot|info``.
 
 Bad input (``InputError``, argparse usage errors) prints ``error: <message>`` on one line to stderr and
 exits 2; a diverged run prints ``diverged: <message>`` and exits 3. Importing this module imports neither
@@ -113,6 +113,14 @@ def _cmd_mesh(args) -> int:
     return 0
 
 
+def _cmd_plot(args) -> int:
+    from cosserat_fsi.plots import plot_run
+
+    for path in plot_run(args.run_dir, args.out, args.time):
+        _say(str(path))
+    return 0
+
+
 def _versions() -> list[tuple[str, str]]:
     """(name, version) of the package, Python and the numerical stack (``-`` when missing)."""
     try:
@@ -179,6 +187,12 @@ def _parser() -> argparse.ArgumentParser:
     mesh = sub.add_parser("mesh", help="build (or find cached) the scene's mesh and print its size")
     scene_args(mesh)
     mesh.set_defaults(func=_cmd_mesh)
+    plot = sub.add_parser("plot", help="PNGs of a run: time series (with the reference band) and snapshots")
+    plot.add_argument("run_dir", help="output folder of `cosserat-fsi run`")
+    plot.add_argument("--out", help="folder for the PNGs (default: RUN_DIR/plots)")
+    plot.add_argument("--time", action="append", type=float, metavar="T",
+                      help="snapshot at the output step nearest to T (repeatable; default: the last step)")
+    plot.set_defaults(func=_cmd_plot)
     info = sub.add_parser("info", help="versions of the numerical stack")
     info.set_defaults(func=_cmd_info)
     return parser

@@ -14,13 +14,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
+from .plots import Fields
 from .validate import C1_VALUES, ROOT, Case, _save, run_case
 
 CLASSICAL = "configs/seed_fsi3.yaml"
@@ -76,35 +76,6 @@ def plot_tip(runs: Path, out: Path, component: str, fig_no: int) -> str | None:
     ax.set_title(f"seed fig. {fig_no}: {'horizontal' if component == 'ux_A' else 'vertical'} displacement of A")
     ax.legend(fontsize=7, loc="upper left")
     return _save(fig, out, f"seed_fig{fig_no}_{component}.png")
-
-
-class Fields:
-    """Read-only view of a run's fields.h5: times, deformed mesh and vertex values of a step."""
-
-    def __init__(self, run_dir: Path):
-        import h5py
-
-        self.h5 = h5py.File(run_dir / "fields.h5", "r")
-        xdmf = (run_dir / "fields.xdmf").read_text(encoding="utf-8")
-        self.times = np.array([float(t) for t in re.findall(r'<Time Value="([^"]+)"', xdmf)])
-        self.steps = sorted(self.h5["mesh/geometry"].keys())[: len(self.times)]
-        self.triangles = self.h5["mesh/topology"][:, :3]
-
-    def nearest(self, t: float) -> int:
-        return int(np.argmin(np.abs(self.times - t)))
-
-    def geometry(self, i: int) -> np.ndarray:
-        return self.h5[f"mesh/geometry/{self.steps[i]}"][:, :2]
-
-    def point(self, name: str, i: int) -> np.ndarray | None:
-        key = f"point/{name}/{self.steps[i]}"
-        return self.h5[key][:] if key in self.h5 else None
-
-    def solid_triangles(self, i: int) -> np.ndarray:
-        key = f"cell/subdomain/{self.steps[i]}"
-        if key not in self.h5:
-            return np.zeros(0, dtype=int)
-        return np.where(self.h5[key][:].ravel() == 2)[0]
 
 
 def _draw(ax, fields: Fields, i: int, values: np.ndarray, title: str, cmap="viridis", vlim=None):

@@ -1,0 +1,166 @@
+"""`cosserat-fsi plot RUN_DIR`: PNGs of a finished (or stopped) run.
+
+Time series from timeseries.csv (tip displacement, forces, energies, other observables), with the
+reference band of the scene's benchmark when there is one, and pyvista off-screen snapshots of |u|, p
+and ω on the deformed mesh (the solid outlined) at chosen times, from fields.h5. Works on any rank
+count's output (the files are global) and needs no display.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+GROUPS = {  # file stem -> (columns, y label)
+    "tip": (("ux_A", "uy_A"), "displacement of A (m)"),
+    "forces": (("drag", "lift"), "force (N per m)"),
+    "energies": (("energy_kinetic", "energy_elastic", "energy_total"), "energy (J per m)"),
+    "flow": (("dp", "flow_rate", "omega_max"), "value"),
+}
+
+
+class Fields:
+    """Read-only view of a run's fields.h5: output times, deformed mesh and vertex values of a step."""
+
+    def __init__(self, run_dir: Path):
+        import h5py
+
+        self.h5 = h5py.File(Path(run_dir) / "fields.h5", "r")
+        xdmf = (Path(run_dir) / "fields.xdmf").read_text(encoding="utf-8")
+        self.times = np.array([float(t) for t in re.findall(r'<Time Value="([^"]+)"', xdmf)])
+        self.steps = sorted(self.h5["mesh/geometry"].keys())[: len(self.times)]
+        self.triangles = self.h5["mesh/topology"][:, :3]
+
+    def nearest(self, t: float) -> int:
+        return int(np.argmin(np.abs(self.times - t)))
+
+    def geometry(self, i: int) -> np.ndarray:
+        return self.h5[f"mesh/geometry/{self.steps[i]}"][:, :2]
+
+    def point(self, name: str, i: int) -> np.ndarray | None:
+        key = f"point/{name}/{self.steps[i]}"
+        return self.h5[key][:] if key in self.h5 else None
+
+    def solid_triangles(self, i: int) -> np.ndarray:
+        key = f"cell/subdomain/{self.steps[i]}"
+        if key not in self.h5:
+            return np.zeros(0, dtype=int)
+        return np.where(self.h5[key][:].ravel() == 2)[0]
+
+
+def _reference(run_dir: Path) -> dict:
+    try:
+        summary = json.loads((run_dir / "summary.json").read_text())
+        name = summary.get("benchmark", {}).get("name")
+    except (OSError, ValueError):
+        return {}
+    if not name:
+        return {}
+    from .references import reference_for
+
+    return reference_for(name) or {}
+
+
+def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
+    """One PNG per group of observables present in timeseries.csv."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .io import read_timeseries
+
+    series = read_timeseries(run_dir / "timeseries.csv")
+    if "t" not in series or len(series["t"]) == 0:
+        raise InputError(f"{run_dir / 'timeseries.csv'}: no time steps to plot")
+    ref = _reference(run_dir)
+    made = []
+    for stem, (columns, ylabel) in GROUPS.items():
+        present = [c for c in columns if c in series]
+        if not present:
+            continue
+        fig, axes = plt.subplots(len(present), 1, figsize=(9, 2.6 * len(present)), sharex=True, squeeze=False)
+        for ax, column in zip(axes[:, 0], present):
+            ax.plot(series["t"], series[column], lw=0.8, label=column)
+            r = ref.get(column)
+            if isinstance(r, dict) and "mean" in r and "amplitude" in r:
+                ax.axhspan(r["mean"] - r["amplitude"], r["mean"] + r["amplitude"], color="0.85", zorder=0,
+                           label="reference range")
+            elif isinstance(r, (int, float)):
+                ax.axhline(r, color="k", ls="--", lw=0.8, label="reference")
+            ax.set_ylabel(column if stem in ("flow", "energies") else f"{column}")
+            ax.legend(fontsize=7, loc="upper left")
+        axes[-1, 0].set_xlabel("t (s)")
+        fig.suptitle(f"{run_dir.name}: {ylabel}")
+        fig.tight_layout()
+        path = out / f"{stem}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        made.append(path)
+    return made
+
+
+def plot_snapshots(run_dir: Path, out: Path, times=None) -> list[Path]:
+    """pyvista off-screen pictures of |u|, p (and ω) at the output steps nearest to ``times``."""
+    if not (run_dir / "fields.h5").exists():
+        return []
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    fields = Fields(run_dir)
+    if len(fields.times) == 0:
+        return []
+    steps = sorted({fields.nearest(t) for t in times}) if times else [len(fields.times) - 1]
+    made = []
+    for i in steps:
+        x = np.zeros((len(fields.geometry(i)), 3))
+        x[:, :2] = fields.geometry(i)
+        cells = np.hstack([np.full((len(fields.triangles), 1), 3), fields.triangles]).ravel()
+        grid = pv.UnstructuredGrid(cells, np.full(len(fields.triangles), pv.CellType.TRIANGLE), x)
+        panels = [("speed (m/s)", np.linalg.norm(fields.point("velocity", i)[:, :2], axis=1), "viridis")]
+        p = fields.point("pressure", i)
+        if p is not None:
+            panels.append(("p (Pa)", p.ravel(), "coolwarm"))
+        w = fields.point("micro_rotation", i)
+        if w is not None:
+            panels.append(("ω (1/s)", w.ravel(), "PuOr_r"))
+        solid = fields.solid_triangles(i)
+        plotter = pv.Plotter(off_screen=True, shape=(len(panels), 1), window_size=(1600, 330 * len(panels)))
+        fluid = np.setdiff1d(np.arange(len(x)), np.unique(fields.triangles[solid])) if len(solid) else slice(None)
+        for k, (label, values, cmap) in enumerate(panels):
+            plotter.subplot(k, 0)
+            mesh = grid.copy()
+            mesh.point_data[label] = values
+            # colour range from the fluid (1–99 %): the solid's pressure is a Lagrange multiplier of
+            # another scale and would wash the fluid out
+            clim = np.percentile(values[fluid], [1, 99]) if label.startswith(("p", "ω")) else None
+            plotter.add_mesh(mesh, scalars=label, cmap=cmap, clim=clim, show_scalar_bar=True,
+                             scalar_bar_args={"title": label, "vertical": True})
+            if len(solid):
+                plotter.add_mesh(grid.extract_cells(solid).extract_feature_edges(), color="white", line_width=2)
+            plotter.add_text(f"{label}, t = {fields.times[i]:.4g} s", font_size=9)
+            plotter.view_xy()
+            plotter.camera.zoom(2.3)
+        path = out / f"snapshot_t{fields.times[i]:.4f}.png"
+        plotter.screenshot(str(path))
+        plotter.close()
+        made.append(path)
+    return made
+
+
+def plot_run(run_dir, out=None, times=None) -> list[Path]:
+    """Write every picture of ``run_dir`` into ``out`` (default RUN_DIR/plots); returns their paths."""
+    run_dir = Path(run_dir)
+    if not (run_dir / "timeseries.csv").exists():
+        raise InputError(f"RUN_DIR: {run_dir} has no timeseries.csv (not a cosserat-fsi run folder?)")
+    out = Path(out) if out else run_dir / "plots"
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out: cannot write to {out} ({exc.strerror or exc})") from None
+    return plot_timeseries(run_dir, out) + plot_snapshots(run_dir, out, times)
