@@ -1,7 +1,8 @@
 """Command line: ``cosserat-fsi run|mesh|plot|info``.
 
 Bad input (``InputError``, argparse usage errors) prints ``error: <message>`` on one line to stderr and
-exits 2; a diverged run prints ``diverged: <message>`` and exits 3. Importing this module imports neither
+exits 2; a diverged run prints ``diverged: <message>`` and exits 3; SIGTERM/SIGINT write a checkpoint,
+print ``interrupted: <message>`` and exit 128 + the signal number. Importing this module imports neither
 dolfinx, petsc4py nor gmsh: they are loaded only by the subcommands that need them.
 """
 
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from cosserat_fsi import __version__
 from cosserat_fsi.config import load_scene
-from cosserat_fsi.errors import DivergenceError, InputError
+from cosserat_fsi.errors import DivergenceError, InputError, Interrupted
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -81,15 +82,30 @@ def _check_out_dir(out: Path) -> None:
 def _cmd_run(args) -> int:
     scene = load_scene(args.config, args.set)
     out = Path(args.out) if args.out else Path("runs") / scene.name
+    if args.restart:
+        restart = Path(args.restart)
+        if args.out and Path(args.out).resolve() != restart.resolve():
+            raise InputError("--out: a restart continues in its own folder; leave --out out or give the same one")
+        if not restart.is_dir():
+            raise InputError(f"--restart: {restart} is not a folder")
+        out = restart
     _check_out_dir(out)
     from cosserat_fsi.runner import run_scene  # heavy: dolfinx, PETSc, MPI
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
+    if args.restart:  # check the checkpoint before anything in the folder is touched (run.log included)
+        from cosserat_fsi.io.checkpoint import read_checkpoint, scene_fingerprint
+
+        read_checkpoint(out, comm, scene_fingerprint(scene))
+        for name in ("timeseries.csv",) + (("fields.xdmf", "fields.h5") if scene.output.fields else ()):
+            if not (out / name).is_file():
+                raise InputError(f"--restart: {out / name} is missing (the checkpoint cannot be continued)")
     setup_logging(out, comm)
     log.info("cosserat-fsi %s: scene %s -> %s (%d rank%s)",
              __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
-    run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress)
+    run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
+              restart=bool(args.restart))
     log.info("done: %s", out)
     return 0
 
@@ -183,6 +199,9 @@ def _parser() -> argparse.ArgumentParser:
     scene_args(run)
     run.add_argument("--out", help="output directory (default: runs/<scene name>)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument("--restart", metavar="DIR",
+                     help="continue the run in DIR from its checkpoint (same scene but for time.t_end and "
+                          "output, same number of ranks)")
     run.set_defaults(func=_cmd_run)
     mesh = sub.add_parser("mesh", help="build (or find cached) the scene's mesh and print its size")
     scene_args(mesh)
@@ -209,6 +228,9 @@ def main(argv: list[str] | None = None) -> int:
     except DivergenceError as exc:
         _say("diverged: " + " ".join(str(exc).split()), sys.stderr)
         return DivergenceError.exit_code
+    except Interrupted as exc:
+        _say("interrupted: " + " ".join(str(exc).split()), sys.stderr)
+        return exc.exit_code
 
 
 if __name__ == "__main__":

@@ -226,11 +226,12 @@ class Solver(_Section):
 
 
 class Output(_Section):
-    """Output: field-output interval in steps, whether to write fields, progress bar."""
+    """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval."""
 
     every: int = Field(default=10, ge=1)
     fields: bool = True
     progress: bool = True
+    checkpoint_every: int = Field(default=1000, ge=0)  # steps between checkpoints; 0: only on SIGTERM/SIGINT
 
 
 class Scene(_Section):

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import logging
+import signal
+import threading
 import time
 from pathlib import Path
 
@@ -17,9 +19,10 @@ from mpi4py import MPI
 from . import __version__, compat
 from .analysis import periodic_analysis, relative_error
 from .config import dump_resolved
-from .errors import DivergenceError
+from .errors import DivergenceError, Interrupted
 from .geometry import build_msh
 from .io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
+from .io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
 from .observables import Observables, schaefer_turek_coefficients
 from .references import reference_for
 from .scheme.stepper import Stepper
@@ -38,16 +41,29 @@ def load_mesh(scene, comm):
     return mesh, cell_tags, facet_tags, path
 
 
-def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True) -> dict:
-    """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json)."""
+def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False) -> dict:
+    """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json).
+
+    ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
+    output, same rank count): the time series and fields after the checkpoint are dropped and rewritten.
+    A checkpoint is written every ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then
+    stop the run (:class:`Interrupted`).
+    """
     out_dir = Path(out_dir)
     wall0 = time.perf_counter()
+    fingerprint = scene_fingerprint(scene)
+    meta = state = None
+    if restart:
+        meta, state = read_checkpoint(out_dir, comm, fingerprint)
     if comm.rank == 0:
         (out_dir / "config.yaml").write_text(dump_resolved(scene), encoding="utf-8")
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
     n_vertices = mesh.topology.index_map(0).size_global
     stepper = Stepper(scene, mesh, cell_tags, facet_tags, comm)
-    observables = Observables(stepper)
+    observables = Observables(stepper)  # on the reference mesh (point A is found there)
+    if restart:
+        stepper.restore(state)
+        log.info("restart from the checkpoint of step %d (t = %.6g)", stepper.step_count, stepper.t)
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
              mesh.topology.index_map(mesh.topology.dim).size_global)
     log.info("model: %s", stepper.model.describe())
@@ -56,27 +72,54 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True) 
 
     n_steps = int(round(scene.time.t_end / scene.time.dt))
     every = scene.output.every
-    series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm)
-    fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm) if scene.output.fields else None
+    series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
+                              keep_rows=meta["rows"] if restart else None)
+    fields = None
+    if scene.output.fields:
+        fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
+                                keep_steps=meta.get("field_steps", 0) if restart else None)
     bar = _progress_bar(n_steps, progress and comm.rank == 0)
+    if bar is not None:
+        bar.update(stepper.step_count)
     status, message = "completed", ""
-    try:
-        if fields is not None:
-            _write_fields(fields, stepper)
-        def observe():  # after the solve, on the mesh the step was solved on
-            with stepper.timers("observables"):
-                series.write(stepper.t, observables.evaluate())
+    every_ck = scene.output.checkpoint_every
 
-        for k in range(n_steps):
-            stepper.advance(before_move=observe)
-            if fields is not None and (k + 1) % every == 0:
-                with stepper.timers("output"):
-                    _write_fields(fields, stepper)
-            if bar is not None:
-                bar.update(1)
-                bar.set_postfix_str(f"t={stepper.t:.4g}", refresh=False)
+    def checkpoint():
+        with stepper.timers("checkpoint"):
+            write_checkpoint(out_dir, stepper, comm, {
+                "fingerprint": fingerprint, "rows": stepper.step_count,
+                "field_steps": fields.num_steps if fields is not None else 0})
+
+    try:
+        with _StopSignals() as stop:
+            if fields is not None and not restart:
+                _write_fields(fields, stepper)
+
+            def observe():  # after the solve, on the mesh the step was solved on
+                with stepper.timers("observables"):
+                    series.write(stepper.t, observables.evaluate())
+
+            for k in range(stepper.step_count, n_steps):
+                stepper.advance(before_move=observe)
+                if fields is not None and (k + 1) % every == 0:
+                    with stepper.timers("output"):
+                        _write_fields(fields, stepper)
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix_str(f"t={stepper.t:.4g}", refresh=False)
+                signum = comm.allreduce(stop.signum, op=MPI.MAX)
+                if signum:
+                    checkpoint()
+                    raise Interrupted(f"signal {signum} at step {stepper.step_count} (t = {stepper.t:.6g}): "
+                                      f"checkpoint written; resume with `cosserat-fsi run CONFIG --restart "
+                                      f"{out_dir}`", signum)
+                if every_ck and (k + 1) % every_ck == 0 and k + 1 < n_steps:
+                    checkpoint()
     except DivergenceError as exc:
         status, message = "diverged", str(exc)
+        raise
+    except Interrupted as exc:
+        status, message = "interrupted", str(exc)
         raise
     finally:
         if bar is not None:
@@ -87,6 +130,30 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True) 
         summary = _summary(scene, stepper, out_dir, n_vertices, setup_time, time.perf_counter() - wall0,
                            status, message, comm)
     return summary
+
+
+class _StopSignals:
+    """Within the block, SIGTERM and SIGINT only record their number (``signum``); the time loop then
+    writes a checkpoint and stops. Outside the main thread (tests) nothing is installed."""
+
+    SIGNALS = (signal.SIGTERM, signal.SIGINT)
+
+    def __init__(self):
+        self.signum = 0
+        self._old = {}
+
+    def _handler(self, signum, frame):
+        self.signum = signum
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                self._old[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
 
 
 def _progress_bar(total: int, enabled: bool):

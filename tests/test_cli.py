@@ -96,7 +96,7 @@ def fake_runner(monkeypatch):
     module.calls = []
     module.error = None
 
-    def run_scene(scene, out_dir, comm, progress):
+    def run_scene(scene, out_dir, comm, progress, restart=False):
         module.calls.append((scene, out_dir, progress))
         logging.getLogger("cosserat_fsi.runner").info("stub step")
         if module.error:

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
+
 
 class TimeSeriesWriter:
     """``path`` gets the header ``t,<columns>`` and one row per :meth:`write`.
@@ -17,15 +19,29 @@ class TimeSeriesWriter:
     Collective-safe: every rank may call it, only rank 0 touches the file.
     """
 
-    def __init__(self, path: Path, columns: list[str], comm):
+    def __init__(self, path: Path, columns: list[str], comm, keep_rows: int | None = None):
+        """``keep_rows``: continue an existing file after its first ``keep_rows`` rows (a restart)."""
         self.columns = list(columns)
         if "t" in self.columns or len(set(self.columns)) != len(self.columns):
             raise ValueError("TimeSeriesWriter: columns must be unique and must not include 't'")
         self.file = None
+        error = None
         if comm.rank == 0:
-            self.file = open(path, "w", newline="")
-            self.file.write(",".join(["t", *self.columns]) + "\n")
-            self.file.flush()
+            header = ",".join(["t", *self.columns]) + "\n"
+            kept = []
+            if keep_rows is not None:
+                lines = Path(path).read_text().splitlines(keepends=True) if Path(path).exists() else []
+                if not lines or lines[0] != header or len(lines) - 1 < keep_rows:
+                    error = (f"--restart: {path} does not match the checkpoint "
+                             f"(needs its header and {keep_rows} rows)")
+                kept = lines[1: keep_rows + 1]
+            if error is None:
+                self.file = open(path, "w", newline="")
+                self.file.write(header + "".join(kept))
+                self.file.flush()
+        error = comm.bcast(error, root=0)
+        if error:
+            raise InputError(error)
 
     def write(self, t: float, values: dict):
         """Append a row; columns missing from ``values`` are written as nan."""

@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 from cosserat_fsi import compat  # noqa: F401  (before dolfinx)
+from cosserat_fsi.errors import InputError
 import dolfinx.fem
 
 
@@ -42,7 +43,8 @@ class MovingMeshXDMF:
     The mesh must have affine (P1) triangle geometry. Collective: every rank calls every method.
     """
 
-    def __init__(self, path: Path, mesh, comm):
+    def __init__(self, path: Path, mesh, comm, keep_steps: int | None = None):
+        """``keep_steps``: continue existing files after their first ``keep_steps`` steps (a restart)."""
         self.path, self.mesh, self.comm = Path(path), mesh, comm
         self.h5path = self.path.with_suffix(".h5")
         self.num_steps = 0
@@ -67,9 +69,52 @@ class MovingMeshXDMF:
             self.cell_order = np.argsort(np.concatenate(all_cells), kind="stable")
             sorted_nodes = nodes[self.node_order]
             topology = np.searchsorted(sorted_nodes, np.concatenate(cells)[self.cell_order])
-            self.h5 = h5py.File(self.h5path, "w")
-            self.h5.create_dataset("mesh/topology", data=topology.astype(np.int64))
-            self.h5.flush()
+        error = None
+        if comm.rank == 0:
+            if keep_steps is None:
+                self.h5 = h5py.File(self.h5path, "w")
+                self.h5.create_dataset("mesh/topology", data=topology.astype(np.int64))
+                self.h5.flush()
+            else:
+                try:
+                    self._reopen(topology, keep_steps)
+                except InputError as exc:
+                    error = str(exc)
+        error = comm.bcast(error, root=0)
+        if error:
+            raise InputError(error)
+        self.num_steps = comm.bcast(len(self.steps) if comm.rank == 0 else None, root=0)
+
+    def _reopen(self, topology: np.ndarray, keep: int):
+        """Rank 0: open the existing pair, drop the steps after the first ``keep``, and continue."""
+        import re
+
+        try:
+            times = [float(t) for t in re.findall(r'<Time Value="([^"]+)"', self.path.read_text())]
+            self.h5 = h5py.File(self.h5path, "a")
+            ok = (len(times) >= keep and "mesh/topology" in self.h5
+                  and np.array_equal(self.h5["mesh/topology"][:], topology))
+        except (OSError, ValueError):
+            ok = False
+        if not ok:
+            raise InputError(f"--restart: {self.path} does not match the checkpoint (needs {keep} steps)")
+        for group in list(self.h5.keys()):
+            if group == "mesh":
+                names = [f"mesh/geometry/{k}" for k in self.h5["mesh/geometry"]]
+            else:
+                names = [f"{group}/{field}/{k}" for field in self.h5[group] for k in self.h5[f"{group}/{field}"]]
+            for name in names:
+                if int(name.rsplit("/", 1)[1]) >= keep:
+                    del self.h5[name]
+        for step in range(keep):
+            shapes = {}
+            for key in ["mesh/geometry"] + [f"{g}/{f}" for g in ("point", "cell") if g in self.h5 for f in self.h5[g]]:
+                name = f"{key}/{step:06d}"
+                if name in self.h5:
+                    shapes[key] = (self.h5[name].shape, self.h5[name].dtype)
+            self.steps.append((times[step], shapes))
+        self.h5.flush()
+        self._write_xdmf()
 
     def _gather(self, local: np.ndarray, order: np.ndarray | None):
         """Owned values of all ranks on rank 0, in original numbering (None elsewhere)."""

@@ -150,6 +150,8 @@ class Stepper:
         self._alpha_of_A = None
         self.ksp = self._make_solver()
         self.b = compat.create_vector(self.L_form, sp.W)
+        self._ref_coords = None
+        self._reference_coordinates()
 
     # ------------------------------------------------------------------------------------- set-up
     def _const(self, value):
@@ -490,6 +492,69 @@ class Stepper:
         if self.comm.allreduce(bad or reason < 0, op=MPI.LOR):
             raise DivergenceError(f"step {self.step_count + 1} (t = {t:.6g}): non-finite solution "
                                   f"(linear solver reason {reason}); try a smaller time.dt or a finer mesh")
+
+    # ------------------------------------------------------------------------------ checkpoints
+    def _state_functions(self) -> dict:
+        fns = {"u_n": self.u_n, "u_nm1": self.u_nm1, "p_n": self.p_n, "mesh_velocity": self.mesh_velocity}
+        if self.model.micro_rotation:
+            fns.update(omega_n=self.omega_n, omega_nm1=self.omega_nm1)
+        if self.model.solid:
+            fns["d_n"] = self.d_n
+        if self.motion is not None:
+            fns["mesh_displacement"] = self.motion.displacement
+            fns["mesh_velocity_P1"] = self.motion.velocity
+            if hasattr(self.motion, "solid_displacement"):
+                fns["solid_displacement"] = self.motion.solid_displacement
+        return fns
+
+    def _reference_coordinates(self) -> dict:
+        """Dof coordinates of every state function on the reference mesh (computed before it moves)."""
+        if getattr(self, "_ref_coords", None) is None:
+            self._ref_coords = {name: f.function_space.tabulate_dof_coordinates()[:, :2].copy()
+                                for name, f in self._state_functions().items()}
+        return self._ref_coords
+
+    def state(self) -> dict:
+        """The state the next steps depend on, as this rank's owned dofs keyed by their reference
+        coordinates: a checkpoint independent of the partition (which is not deterministic)."""
+        out = {"t": np.array(self.t), "step_count": np.array(self.step_count)}
+        for name, f in self._state_functions().items():
+            n = f.function_space.dofmap.index_map.size_local
+            bs = f.function_space.dofmap.index_map_bs
+            out[name + ".x"] = self._reference_coordinates()[name][:n]
+            out[name + ".v"] = f.x.array.reshape(-1, bs)[:n]
+        return out
+
+    def restore(self, states: list[dict]):
+        """Inverse of :meth:`state`, from the states of all ranks of the run that wrote them."""
+        scale = 1e9 / max(1.0, float(np.abs(self.mesh.geometry.x).max()))
+        ref = self._reference_coordinates()
+
+        def keys(x):
+            return [tuple(k) for k in np.rint(x * scale).astype(np.int64)]
+
+        for name, f in self._state_functions().items():
+            if any(name + ".v" not in s for s in states):
+                raise InputError(f"--restart: the checkpoint has no {name!r} (another scene)")
+            bs = f.function_space.dofmap.index_map_bs
+            saved = dict(zip(keys(np.concatenate([s[name + ".x"] for s in states])),
+                             np.concatenate([s[name + ".v"] for s in states]).reshape(-1, bs)))
+            try:
+                values = np.array([saved[k] for k in keys(ref[name])])
+            except KeyError:
+                raise InputError(f"--restart: checkpoint field {name!r} does not fit this mesh") from None
+            f.x.array[:] = values.ravel()
+        self.t, self.step_count = float(states[0]["t"]), int(states[0]["step_count"])
+        sp = self.space  # the mixed solution (the Krylov solver's initial guess)
+        self.w.x.array[sp.dofs("velocity")] = self.u_n.x.array
+        self.w.x.array[sp.dofs("pressure")] = self.p_n.x.array
+        if self.model.micro_rotation:
+            self.w.x.array[sp.dofs("micro_rotation")] = self.omega_n.x.array
+        if self.motion is not None:  # the mesh: reference + displacement
+            m = self.motion
+            self.mesh.geometry.x[:, :2] = m.X0 + m.displacement.x.array.reshape(-1, 2)[m.node_dof]
+            self.chars.locator.update()
+        self.A, self._alpha_of_A = None, None
 
     # ----------------------------------------------------------------------------------- sizes
     def num_dofs(self) -> dict:

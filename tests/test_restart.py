@@ -1,0 +1,175 @@
+"""Checkpoint/restart and SIGTERM: a run restarted from its checkpoint reproduces the uninterrupted run
+(to 1e-10 relative, same rank count), a signal writes a checkpoint and exits 128 + signal, and a
+restart from a missing, corrupt or foreign checkpoint is a one-line exit 2 that leaves the folder as it was."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from cosserat_fsi.config import validate_scene
+from cosserat_fsi.io import read_timeseries
+from cosserat_fsi.runner import run_scene
+
+ST = {"geometry": {"name": "schaefer_turek", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.001},
+      "inflow": {"u_mean": 1.0, "ramp_time": 0.2},
+      "time": {"dt": 0.05, "t_end": 0.6, "scheme": "characteristics2"},
+      "output": {"every": 2, "checkpoint_every": 5, "progress": False}}
+FSI = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid": {"rho": 1000.0, "mu": 1.0},
+       "solid": {"rho": 1000.0, "mu_s": 5.0e4}, "inflow": {"u_mean": 1.0, "ramp_time": 0.05},
+       "time": {"dt": 0.01, "t_end": 0.16}, "solver": {"reuse_factorization": False},
+       "output": {"every": 3, "checkpoint_every": 8, "progress": False}}
+
+
+@pytest.fixture
+def shared_tmp():
+    comm = MPI.COMM_WORLD
+    path = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
+    yield path
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path)
+
+
+def _fields(path: Path) -> dict:
+    import h5py
+
+    with h5py.File(path / "fields.h5", "r") as f:
+        out = {}
+        f.visititems(lambda name, obj: out.__setitem__(name, obj[:]) if hasattr(obj, "shape") else None)
+    return out
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("raw", [ST, FSI], ids=["navier_stokes_bdf2", "fsi_moving_mesh"])
+def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
+    comm = MPI.COMM_WORLD
+    scene = validate_scene(raw)
+    full, cut = shared_tmp / "full", shared_tmp / "cut"
+    if comm.rank == 0:
+        full.mkdir()
+    comm.barrier()
+    run_scene(scene, full, comm, progress=False)
+    if comm.rank == 0:  # a copy "killed" after the last checkpoint: later rows and field steps half-written
+        shutil.copytree(full, cut)
+        meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
+        lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
+        (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
+        assert 0 < meta["step"] < len(lines) - 1
+    comm.barrier()
+    run_scene(scene, cut, comm, progress=False, restart=True)
+    if comm.rank == 0:
+        a, b = read_timeseries(full / "timeseries.csv"), read_timeseries(cut / "timeseries.csv")
+        assert list(a) == list(b) and len(a["t"]) == len(b["t"]) == round(scene.time.t_end / scene.time.dt)
+        for key in a:
+            scale = max(np.abs(a[key]).max(), 1e-30)
+            assert np.abs(a[key] - b[key]).max() <= 1e-10 * scale, key
+        fa, fb = _fields(full), _fields(cut)
+        assert sorted(fa) == sorted(fb)
+        for key in fa:
+            assert np.allclose(fa[key], fb[key], rtol=1e-10, atol=1e-12 * max(np.abs(fa[key]).max(), 1)), key
+        assert json.loads((cut / "summary.json").read_text())["status"] == "completed"
+
+
+def _cli(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def _config(tmp_path, raw=ST, **time):
+    import yaml
+
+    raw = {**raw, "time": {**raw["time"], **time}}
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def test_sigterm_writes_a_checkpoint_and_the_restart_completes(tmp_path):
+    config = _config(tmp_path, t_end=40.0)  # 800 steps: the signal arrives mid-run
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi.cli", "run", str(config), "--out", str(out),
+                             "--no-progress"], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    csv = out / "timeseries.csv"
+    deadline = time.time() + 120
+    while time.time() < deadline and (not csv.exists() or csv.read_text().count("\n") < 12):
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    lines = [x for x in err.splitlines() if x.startswith("interrupted:")]
+    assert len(lines) == 1 and "--restart" in lines[0] and "Traceback" not in err
+    meta = json.loads((out / "checkpoint" / "meta.json").read_text())
+    rows = read_timeseries(csv)["t"]
+    assert meta["step"] == len(rows) >= 11  # the checkpoint is of the last step written
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+    # resume with a shorter end time (allowed to change) and compare with an uninterrupted run
+    t_end = 0.05 * (meta["step"] + 6)
+    done = _cli("run", _config(tmp_path, t_end=t_end), "--restart", out, "--no-progress")
+    assert done.returncode == 0, done.stderr
+    ref = tmp_path / "ref"
+    assert _cli("run", _config(tmp_path, t_end=t_end), "--out", ref, "--no-progress").returncode == 0
+    a, b = read_timeseries(ref / "timeseries.csv"), read_timeseries(csv)
+    assert len(a["t"]) == len(b["t"]) == meta["step"] + 6
+    assert np.abs(a["drag"] - b["drag"]).max() <= 1e-10 * np.abs(a["drag"]).max()
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("finished")
+    out = tmp / "run"
+    assert _cli("run", _config(tmp, t_end=0.3), "--out", out, "--no-progress",
+                "--set", "output.checkpoint_every=2").returncode == 0
+    return tmp, out
+
+
+def _snapshot(folder: Path) -> dict:
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("no_checkpoint", "error: --restart: "),
+    ("not_a_folder", "error: --restart: "),
+    ("corrupt_meta", "error: --restart: "),
+    ("foreign_scene", "error: --restart: the checkpoint is from another scene"),
+    ("other_out", "error: --out: a restart continues in its own folder"),
+    ("missing_rank_file", "error: --restart: cannot read"),
+    ("timeseries_gone", "error: --restart: "),
+])
+def test_bad_restart_exits_2_and_touches_nothing(finished_run, tmp_path, case, expected):
+    tmp, run = finished_run
+    folder = tmp_path / "copy"
+    shutil.copytree(run, folder)
+    config, extra = _config(tmp_path, t_end=0.3), []
+    if case == "no_checkpoint":
+        shutil.rmtree(folder / "checkpoint")
+    elif case == "not_a_folder":
+        folder = folder / "timeseries.csv"
+    elif case == "corrupt_meta":
+        (folder / "checkpoint" / "meta.json").write_text("{not json")
+    elif case == "foreign_scene":
+        extra = ["--set", "fluid.mu=0.002"]
+    elif case == "other_out":
+        extra = ["--out", tmp_path / "elsewhere"]
+    elif case == "missing_rank_file":
+        (folder / "checkpoint" / "rank0000.npz").unlink()
+    elif case == "timeseries_gone":
+        (folder / "timeseries.csv").unlink()
+    before = _snapshot(folder) if folder.is_dir() else None
+    result = _cli("run", config, "--restart", folder, "--no-progress", *extra)
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert result.stderr.startswith(expected), result.stderr
+    if before is not None:
+        assert _snapshot(folder) == before
+    assert not (tmp_path / "elsewhere").exists()
