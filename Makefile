@@ -22,7 +22,7 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 
 # ------------------------------------------------------------------------------------ Debian stack
 APT_PACKAGES := python3-dolfinx-real python3-gmsh python3-h5py python3-yaml python3-venv \
-                python3-matplotlib python3-pip libopenblas0-pthread openmpi-bin
+                python3-matplotlib python3-pip libopenblas0-pthread openmpi-bin python3-paraview
 SYSTEM_PYTHON := /usr/bin/python3
 VENV := .venv
 PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista
