@@ -147,7 +147,8 @@ def test_deterministic_and_cached(tmp_path, monkeypatch):
     a = geometry.build_msh("turek_hron", 0, None, tmp_path / "a")
     b = geometry.build_msh("turek_hron", 0, {"flag": "solid"}, tmp_path / "b")
     assert a.name == b.name and a.read_bytes() == b.read_bytes()
-    assert [p.name for p in (tmp_path / "a").iterdir()] == [a.name]  # no temporary file left
+    # no temporary file left; the .sha256 stamp guards the cache
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == [a.name, a.with_suffix(".sha256").name]
     assert a.read_text().startswith("$MeshFormat\n4.1 0 8\n")
     assert geometry.build_msh("turek_hron", 0, {"flag": "rigid"}, tmp_path / "a") != a
 
@@ -158,13 +159,28 @@ def test_deterministic_and_cached(tmp_path, monkeypatch):
     assert geometry.build_msh("turek_hron", 0, None, tmp_path / "a") == a
 
 
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "no_stamp"])
+def test_damaged_cached_mesh_is_rebuilt(tmp_path, damage):
+    """A cached .msh that was truncated, overwritten or has no stamp is rebuilt, never read."""
+    path = geometry.build_msh("channel", 0, None, tmp_path)
+    good = path.read_bytes()
+    if damage == "truncated":
+        path.write_bytes(good[: len(good) // 3])
+    elif damage == "garbage":
+        path.write_text("$MeshFormat\nnot a mesh\n")
+    else:
+        path.with_suffix(".sha256").unlink()
+    assert geometry.build_msh("channel", 0, None, tmp_path) == path
+    assert path.read_bytes() == good and path.with_suffix(".sha256").exists()
+
+
 @pytest.mark.parametrize("name,defaults,other", [("flag", {"length": 0.35, "thickness": 0.02}, {"thickness": 0.03}),
                                                 ("box", {"radius": 0.2}, {"radius": 0.25})])
 def test_deterministic_new_geometries(tmp_path, monkeypatch, name, defaults, other):
     a = geometry.build_msh(name, 0, None, tmp_path / "a")
     b = geometry.build_msh(name, 0, defaults, tmp_path / "b")
     assert a.name == b.name and a.name.startswith(f"{name}-L0-") and a.read_bytes() == b.read_bytes()
-    assert [p.name for p in (tmp_path / "a").iterdir()] == [a.name]
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == [a.name, a.with_suffix(".sha256").name]
     assert a.read_text().startswith("$MeshFormat\n4.1 0 8\n")
     assert geometry.build_msh(name, 0, other, tmp_path / "a").name != a.name
     monkeypatch.setattr(getattr(geometry, name), "build", lambda *args: pytest.fail("rebuilt a cached mesh"))

@@ -14,6 +14,7 @@ edges, exterior; box: the circle, interior), lid 6 (square top), clamp 7 (flag: 
 """
 
 import hashlib
+import logging
 import json
 import os
 import pathlib
@@ -66,6 +67,9 @@ def describe(name, params=None):
     return module.describe(full)
 
 
+log = logging.getLogger("cosserat_fsi")
+
+
 def default_cache_dir():
     """``<repo>/meshes`` in a writable source checkout, else ``~/.cache/cosserat-fsi/meshes``."""
     repo = pathlib.Path(__file__).resolve().parents[2]
@@ -79,6 +83,10 @@ def default_cache_dir():
     return pathlib.Path.home() / ".cache" / "cosserat-fsi" / "meshes"
 
 
+def _sha256(path: pathlib.Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def build_msh(name, level, params=None, cache_dir=None):
     """Path of the cached .msh for (name, level, params); builds it with gmsh if missing.
 
@@ -89,8 +97,11 @@ def build_msh(name, level, params=None, cache_dir=None):
     key = json.dumps({"name": name, "level": level, "params": full, "version": BUILDER_VERSION}, sort_keys=True)
     cache = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = cache / f"{name}-L{level}-{hashlib.sha1(key.encode()).hexdigest()[:10]}.msh"
-    if path.exists():
+    stamp = path.with_suffix(".sha256")
+    if path.exists() and stamp.exists() and stamp.read_text().strip() == _sha256(path):
         return path
+    if path.exists():  # no stamp (older cache) or a damaged file: rebuild, never read a bad mesh
+        log.warning("mesh cache %s is damaged or unverified: rebuilding it", path.name)
     cache.mkdir(parents=True, exist_ok=True)
     scale = module.SEED_SCALE if level == "seed" else 2.0**-level
     import gmsh
@@ -106,7 +117,11 @@ def build_msh(name, level, params=None, cache_dir=None):
         finally:
             gmsh.finalize()
         os.chmod(tmp, 0o644)
+        digest = _sha256(pathlib.Path(tmp))
         os.replace(tmp, path)
+        stamp_tmp = stamp.with_name(stamp.name + f".{os.getpid()}")
+        stamp_tmp.write_text(digest + "\n")
+        os.replace(stamp_tmp, stamp)
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
