@@ -60,3 +60,18 @@ def micropolar(u, omega, v, tau, *, rho, mu_r, lambda1, inertia, inv_dt, alpha, 
          + alpha * rho * inertia * inv_dt * omega * tau * dx_inertia)
     L = rho * inertia * inv_dt * history * tau * dx_inertia + body_couple * tau * dx
     return a, L
+
+
+def half_curl_wall(u, omega, tau, *, lambda1, ds, mesh, gamma=10.0):
+    """The wall condition ω = ½ curl u, imposed weakly (Nitsche) on the facets of ``ds``:
+
+    a = −(λ₁ ∂ω/∂n, τ)_Γ + (λ₁ ∂τ/∂n, ω − ½ curl u)_Γ + (γ λ₁/h (ω − ½ curl u), τ)_Γ.
+
+    Consistent (the exact solution satisfies it term by term) and, with the antisymmetric pair of
+    normal-derivative terms, coercive in ω for any γ > 0. With λ₁ = 0 the ω equation has no
+    derivatives and needs no wall condition: the terms vanish.
+    """
+    n, h = ufl.FacetNormal(mesh), ufl.CellDiameter(mesh)
+    jump = omega - 0.5 * curl_vector(u)
+    return (-lambda1 * ufl.dot(ufl.grad(omega), n) * tau + lambda1 * ufl.dot(ufl.grad(tau), n) * jump
+            + gamma * lambda1 / h * jump * tau) * ds

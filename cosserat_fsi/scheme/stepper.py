@@ -98,8 +98,6 @@ class Stepper:
         reference coordinates that the mesh follows instead of the material (ALE verification)."""
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.model = Model.from_scene(scene)
-        if self.model.micro_rotation and scene.micropolar.wall_condition != "zero":
-            raise InputError("micropolar.wall_condition: only 'zero' (ω = 0 on walls, the seed's) is implemented")
         if self.model.solid and scene.time.scheme != "characteristics1":
             raise InputError("time.scheme: only characteristics1 is available with a solid (moving mesh) so far")
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
@@ -228,6 +226,11 @@ class Stepper:
                                         body_couple=self.g, dx=dx,
                                         viscous_form=self.viscous_form, dx_inertia=self.dx_inertia)
             a, L = a + a_m, L + L_m
+            if self.scene.micropolar.wall_condition == "half_curl":
+                ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
+                walls = tuple(TAGS[name] for name in self._half_curl_walls())
+                a = a + fluid.half_curl_wall(trial[i_u], trial[i_w], test[i_w], lambda1=self.lambda1, ds=ds(walls),
+                                             mesh=self.mesh)
         if self.model.solid:
             dx_solid = ufl.dx(domain=self.mesh, subdomain_data=self.cell_tags)(SOLID)
             a_s, L_s = solid.mooney_rivlin(trial[i_u], test[i_u], self.d_n, mu_s=self.mu_s, dt=self.dt_const,
@@ -270,11 +273,12 @@ class Stepper:
             dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim, self.facets(*facet_names))
             self.bcs.append(dolfinx.fem.dirichletbc(g, dofs, sp.sub(space_name)))
 
+        weak = self._half_curl_walls() if self.model.micro_rotation else ()
         if self.exact is not None:
             boundary = [name for name in TAGS if name != "outlet"]
             add("velocity", boundary, exact=self.exact.velocity)
             if self.model.micro_rotation:
-                add("micro_rotation", boundary, exact=self.exact.micro_rotation)
+                add("micro_rotation", [b for b in boundary if b not in weak], exact=self.exact.micro_rotation)
             return
         inflow = self.scene.inflow
         moving_lid = inflow is not None and self.scene.geometry.name == "square"
@@ -303,8 +307,14 @@ class Stepper:
             kick = (tilt, bump) if inflow.asymmetry and not moving_lid else None
             add("velocity", ("lid",) if moving_lid else ("inlet",), values=lid if moving_lid else profile,
                 scale=lambda t: ramp(t, ramp_time), kick=kick)
-        if self.model.micro_rotation:
+        if self.model.micro_rotation and not weak:
             add("micro_rotation", no_slip + ("lid",))
+
+    def _half_curl_walls(self) -> tuple:
+        """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl)."""
+        if self.scene.micropolar.wall_condition != "half_curl":
+            return ()
+        return self.no_slip_boundaries() + ("lid",)
 
     def no_slip_boundaries(self) -> tuple:
         """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free)."""
