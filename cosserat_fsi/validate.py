@@ -101,6 +101,10 @@ FSI_CASES = [
     Case("fsi3-seed-dt0.005", "configs/seed_fsi3.yaml", {"benchmark": "turek_hron_fsi3"}, FSI3,
          "the seed's settings (its mesh, δt = 0.005) against Turek–Hron FSI3"),
     Case("fsi3-seed-dt0.002", "configs/turek_hron_fsi3.yaml", {"geometry.level": "seed", "time.dt": 0.002}, FSI3),
+    Case("fsi3-seed-dt0.002-eq", "configs/turek_hron_fsi3.yaml",
+         {"geometry.level": "seed", "time.dt": 0.002, "solid.mu_s": 2.0e6 * EQ}, FSI3,
+         "FSI3 with the bending-equivalent μ_s = 1.667e6 (the benchmark's St. Venant–Kirchhoff flag, "
+         "ν = 0.4, bends like an incompressible one with 5/6 of its shear modulus)"),
     Case("fsi3-seed-dt0.001", "configs/turek_hron_fsi3.yaml", {"geometry.level": "seed"}, FSI3),
     Case("fsi3-L1-dt0.002", "configs/turek_hron_fsi3.yaml", {"time.dt": 0.002}, FSI3),
     Case("fsi3-L1-dt0.001", "configs/turek_hron_fsi3.yaml", {}, FSI3),
