@@ -65,12 +65,12 @@ PYTEST_FLAGS := -q -rs --durations=15
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
 .PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
-        test-mpi-latest validate sweep-c1 figures info clean distclean
+        test-mpi-latest validate sweep-c1 figures extremes info clean distclean
 
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
 	@echo "make test    both stacks: serial pytest, then -m mpi under 2 ranks"
-	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | clean | distclean"
+	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | extremes | clean | distclean"
 
 # ------------------------------------------------------------------------------------ setup
 setup: apt $(STAMP_DEBIAN)
@@ -161,6 +161,11 @@ sweep-c1: $(RUN_SETUP)
 # The seed's figures 3-10 into docs/figures and docs/seed_reproduction.md (runs resume; ~30 min on 2 cores)
 figures: $(RUN_SETUP)
 	$(PY) -m cosserat_fsi.seed_figures
+
+# Stability at the extremes (stiff/soft/light/heavy solid, dt x 10, high Re, mu_r/mu = 1000, tiny
+# micro-inertia) into docs/extremes.md (~10 min on 2 cores)
+extremes: $(RUN_SETUP)
+	$(PY) -m cosserat_fsi.extremes
 
 info: setup setup-latest
 	@echo "=== Debian stack ($(VENV)) ==="

@@ -1,0 +1,128 @@
+"""`make extremes`: numerical stability at the edges of parameter space (issue 5, item 4).
+
+Each case is the Turek–Hron FSI3 scene on the coarsest mesh (level 0, 2 s of flow with a 0.5 s ramp)
+with one parameter pushed to an extreme. A case passes when it either completes with finite, bounded
+energy (the total energy never exceeds 100 × the kinetic energy of the mean inflow over the whole
+channel) or stops with exit code 3 and a `diverged:` message — never a silent NaN. The table goes into
+docs/extremes.md; finished cases are not run again.
+
+    python -m cosserat_fsi.extremes [--jobs 2] [--only PATTERN] [--out docs]
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = "configs/turek_hron_fsi3.yaml"
+BASE = {"geometry.level": 0, "time.dt": 0.005, "time.t_end": 2.0, "inflow.ramp_time": 0.5,
+        "output.fields": "false", "output.checkpoint_every": 0}
+MICRO = {"micropolar.lambda1": 1.0e-4, "micropolar.inertia": 1.0e-4}
+
+# id -> (what, overrides)
+CASES = {
+    "baseline": ("FSI3 on the coarsest mesh (level 0), δt = 0.005", {}),
+    "stiff-solid": ("μ_s × 1000 (2e9 Pa)", {"solid.mu_s": 2.0e9}),
+    "soft-solid": ("μ_s ÷ 100 (2e4 Pa)", {"solid.mu_s": 2.0e4}),
+    "light-solid": ("ρ_s/ρ_f = 0.01", {"solid.rho": 10.0}),
+    "heavy-solid": ("ρ_s/ρ_f = 100", {"solid.rho": 1.0e5}),
+    "dt-x10": ("δt × 10 (0.05: CFL ≈ 15 at the cylinder)", {"time.dt": 0.05}),
+    "high-re": ("Re = 20,000 (μ = 0.01)", {"fluid.mu": 0.01}),
+    "mu_r-1000": ("μ_r/μ = 1000", {**MICRO, "micropolar.mu_r": 1000.0}),
+    "inertia-1e-6": ("micro-inertia I = 1e-6 m² (μ_r = 0.5)", {**MICRO, "micropolar.mu_r": 0.5,
+                                                               "micropolar.inertia": 1.0e-6}),
+}
+ENERGY_BOUND = 100.0  # × ½ ρ_f Ū² |channel|
+
+
+def run_case(case_id: str, runs: Path, python: str) -> Path:
+    out = runs / f"extreme-{case_id}"
+    summary = out / "summary.json"
+    if summary.exists() and json.loads(summary.read_text()).get("status") in ("completed", "diverged"):
+        return out
+    out.mkdir(parents=True, exist_ok=True)
+    args = []
+    for key, value in {**BASE, **CASES[case_id][1]}.items():
+        args += ["--set", f"{key}={value}"]
+    cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / CONFIG), "--out", str(out), "--no-progress", *args]
+    with open(out / "stdout.log", "w") as log:
+        proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
+    (out / "exit_code").write_text(f"{proc.returncode}\n")
+    return out
+
+
+def verdict(out: Path) -> dict:
+    """What happened in a finished case folder: status, exit code, energy, message, pass/fail."""
+    from .io import read_timeseries
+
+    code = int((out / "exit_code").read_text()) if (out / "exit_code").exists() else None
+    summary = json.loads((out / "summary.json").read_text()) if (out / "summary.json").exists() else {}
+    series = read_timeseries(out / "timeseries.csv") if (out / "timeseries.csv").exists() else {}
+    energy = series.get("energy_total", np.zeros(0))
+    values = np.concatenate([v for k, v in series.items() if k != "t"]) if series else np.zeros(0)
+    finite = bool(np.isfinite(values).all())
+    scale = 0.5 * 1000.0 * 2.0**2 * 2.5 * 0.41  # ½ ρ_f Ū² |channel| (J per m)
+    bounded = finite and (energy.max(initial=0.0) <= ENERGY_BOUND * scale)
+    status = summary.get("status", "?")
+    message = summary.get("message", "")
+    ok = (code == 0 and status == "completed" and bounded) or (code == 3 and status == "diverged" and message)
+    return {"status": status, "exit": code, "finite": finite, "energy_max": float(energy.max(initial=0.0)),
+            "energy_scale": scale, "uy_max": float(np.abs(series.get("uy_A", np.zeros(1))).max(initial=0.0)),
+            "steps": len(series.get("t", [])), "message": message, "ok": bool(ok),
+            "per_step": summary.get("wall_time", {}).get("per_step")}
+
+
+def write_report(runs: Path, out: Path) -> Path:
+    rows = ["| case | what | outcome | steps | max energy / scale | max \\|uy(A)\\| (mm) | s/step | ok |",
+            "|---|---|---|---|---|---|---|---|"]
+    for case_id, (what, _) in CASES.items():
+        folder = runs / f"extreme-{case_id}"
+        if not (folder / "exit_code").exists():
+            rows.append(f"| {case_id} | {what} | not run | | | | | |")
+            continue
+        v = verdict(folder)
+        outcome = ("completed, bounded energy" if v["status"] == "completed" and v["ok"] else
+                   f"exit {v['exit']}: {v['message'] or v['status']}")
+        rows.append(f"| {case_id} | {what} | {outcome} | {v['steps']} | {v['energy_max'] / v['energy_scale']:.3g} | "
+                    f"{1e3 * v['uy_max']:.3g} | {v['per_step'] or 0:.3f} | {'yes' if v['ok'] else '**no**'} |")
+    lines = ["# Extremes", "",
+             "Written by `make extremes` (`python -m cosserat_fsi.extremes`). Each case is "
+             f"`{CONFIG}` on the coarsest mesh with `{' '.join(f'{k}={v}' for k, v in BASE.items())}` and one "
+             "parameter pushed to an extreme. *ok* means: completed with finite energy below "
+             f"{ENERGY_BOUND:g} × ½ ρ_f Ū² |channel| (the scale column divides by that), or stopped with exit "
+             "code 3 and a `diverged:` message naming when and where — never a silent NaN.", "", *rows, ""]
+    path = out / "extremes.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.extremes", description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--only", default="*")
+    parser.add_argument("--out", default=str(ROOT / "docs"))
+    parser.add_argument("--report-only", action="store_true")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    runs = out / "runs"
+    cases = [c for c in CASES if fnmatch.fnmatch(c, args.only)]
+    if not args.report_only:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            for done in pool.map(lambda c: run_case(c, runs, sys.executable), cases):
+                print(f"finished {done.name}", flush=True)
+    print(write_report(runs, out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
