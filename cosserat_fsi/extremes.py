@@ -44,14 +44,15 @@ CASES = {
 ENERGY_BOUND = 100.0  # × ½ ρ_f Ū² |channel|
 
 
-def run_case(case_id: str, runs: Path, python: str) -> Path:
+def run_case(case_id: str, runs: Path, python: str, extra: dict | None = None) -> Path:
+    """Run one case (``extra``: further overrides, e.g. a shorter t_end in the tests)."""
     out = runs / f"extreme-{case_id}"
     summary = out / "summary.json"
     if summary.exists() and json.loads(summary.read_text()).get("status") in ("completed", "diverged"):
         return out
     out.mkdir(parents=True, exist_ok=True)
     args = []
-    for key, value in {**BASE, **CASES[case_id][1]}.items():
+    for key, value in {**BASE, **CASES[case_id][1], **(extra or {})}.items():
         args += ["--set", f"{key}={value}"]
     cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / CONFIG), "--out", str(out), "--no-progress", *args]
     with open(out / "stdout.log", "w") as log:
