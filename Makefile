@@ -65,12 +65,12 @@ PYTEST_FLAGS := -q -rs --durations=15
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
 .PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
-        test-mpi-latest validate sweep-c1 figures extremes info clean distclean
+        test-mpi-latest validate sweep-c1 figures extremes study info clean distclean
 
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
 	@echo "make test    both stacks: serial pytest, then -m mpi under 2 ranks"
-	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | extremes | clean | distclean"
+	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | extremes | study | clean | distclean"
 
 # ------------------------------------------------------------------------------------ setup
 setup: apt $(STAMP_DEBIAN)
@@ -166,6 +166,11 @@ figures: $(RUN_SETUP)
 # micro-inertia) into docs/extremes.md (~10 min on 2 cores)
 extremes: $(RUN_SETUP)
 	$(PY) -m cosserat_fsi.extremes
+
+# Speed/accuracy ladders (studies/*.yaml) into docs/study_<name>.md + Pareto plots (hours on 2 cores;
+# finished runs are kept, so it resumes)
+study: $(RUN_SETUP)
+	@for s in studies/*.yaml; do $(PY) -m cosserat_fsi.cli study $$s --jobs 2 || exit 1; done
 
 info: setup setup-latest
 	@echo "=== Debian stack ($(VENV)) ==="

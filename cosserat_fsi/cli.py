@@ -1,4 +1,4 @@
-"""Command line: ``cosserat-fsi run|mesh|plot|info``.
+"""Command line: ``cosserat-fsi run|mesh|plot|study|info``.
 
 Bad input (``InputError``, argparse usage errors) prints ``error: <message>`` on one line to stderr and
 exits 2; a diverged run prints ``diverged: <message>`` and exits 3; SIGTERM/SIGINT write a checkpoint,
@@ -137,6 +137,13 @@ def _cmd_plot(args) -> int:
     return 0
 
 
+def _cmd_study(args) -> int:
+    from cosserat_fsi.study import main_study
+
+    _say(str(main_study(args.study, args.out, args.jobs, args.report_only)))
+    return 0
+
+
 def _versions() -> list[tuple[str, str]]:
     """(name, version) of the package, Python and the numerical stack (``-`` when missing)."""
     try:
@@ -212,6 +219,12 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--time", action="append", type=float, metavar="T",
                       help="snapshot at the output step nearest to T (repeatable; default: the last step)")
     plot.set_defaults(func=_cmd_plot)
+    study = sub.add_parser("study", help="run a ladder of runs (mesh × δt × options) and report error, time, memory")
+    study.add_argument("study", help="study YAML file (see studies/)")
+    study.add_argument("--out", help="folder for the report, figures and runs (default: docs/)")
+    study.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1)")
+    study.add_argument("--report-only", action="store_true", help="only rewrite the report from finished runs")
+    study.set_defaults(func=_cmd_study)
     info = sub.add_parser("info", help="versions of the numerical stack")
     info.set_defaults(func=_cmd_info)
     return parser

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import logging
+import resource
 import signal
 import threading
 import time
@@ -182,7 +183,10 @@ def _write_fields(fields, stepper):
 
 
 def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
-    """summary.json: versions, sizes, timings, periodic analysis, comparison with the reference."""
+    """summary.json: versions, sizes, timings, peak memory, periodic analysis, comparison with the reference."""
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB (Linux reports KiB)
+    memory = {"peak_rss_mib_max_rank": comm.allreduce(rss, op=MPI.MAX),
+              "peak_rss_mib_sum": comm.allreduce(rss, op=MPI.SUM)}
     summary = None
     if comm.rank == 0:
         series = read_timeseries(out_dir / "timeseries.csv") if stepper.step_count else {}
@@ -198,6 +202,7 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "dofs": stepper.num_dofs(),
             "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": stepper.step_count,
                      "t_final": stepper.t},
+            "memory": memory,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(stepper.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},

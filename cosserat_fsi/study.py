@@ -1,0 +1,243 @@
+"""`cosserat-fsi study STUDY.yaml`: measure the speed/accuracy trade over a ladder of runs.
+
+A study file names a scene, fixed overrides and a ladder (the product of the listed values, e.g. mesh
+levels × δt × scheme × solver options):
+
+    name: cfd3
+    config: configs/turek_hron_cfd3.yaml
+    observables: [drag.mean, lift.amplitude, lift.frequency]   # keys of summary.json's benchmark block
+    base: {time.t_end: 8, inflow.asymmetry: 0.1}
+    ladder:
+      geometry.level: [0, 1]
+      time.dt: [0.002, 0.001]
+    ranks: 1                                                   # optional: runs under mpirun -n ranks
+
+Each run is a `cosserat-fsi run` into ``<out>/runs/study-<name>/<run id>/``; finished runs are not run
+again. The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the
+benchmark's reference, wall time, time per step, the per-phase times and the peak memory, and
+``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto front.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_motion", "observables", "output")
+
+
+class Study(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
+    config: str
+    observables: list[str] = Field(min_length=1)
+    base: dict[str, Any] = {}
+    ladder: dict[str, list[Any]] = Field(min_length=1)
+    ranks: int = Field(default=1, ge=1)
+
+
+def load_study(path) -> Study:
+    """Read and check a study file; InputError (one line, naming the key) when it is not usable."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise InputError(f"{path}: line {mark.line + 1 if mark else '?'}: could not parse YAML") from None
+    if not isinstance(raw, dict):
+        raise InputError(f"{path}: top level must be a mapping")
+    try:
+        study = Study.model_validate(raw)
+    except ValidationError as exc:
+        err = exc.errors(include_url=False)[0]
+        where = ".".join(str(p) for p in err["loc"]) or "study"
+        raise InputError(f"{path}: {where}: {err['msg'].lower()}") from None
+    config = (path.parent / study.config) if not Path(study.config).is_absolute() else Path(study.config)
+    if not config.exists() and not (ROOT / study.config).exists():
+        raise InputError(f"{path}: config: {study.config} not found")
+    for key, values in study.ladder.items():
+        if not values:
+            raise InputError(f"{path}: ladder.{key}: needs at least one value")
+    # every run's scene must validate before anything runs (a bad value costs a second, not an hour)
+    from .config import load_scene
+
+    for overrides in _combinations(study):
+        try:
+            load_scene(_config_path(study, path), [f"{k}={_yaml(v)}" for k, v in overrides.items()])
+        except InputError as exc:
+            raise InputError(f"{path}: {exc}") from None
+    return study
+
+
+def _config_path(study: Study, study_path: Path) -> Path:
+    local = study_path.parent / study.config
+    return local if local.exists() else ROOT / study.config
+
+
+def _yaml(value) -> str:
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def _combinations(study: Study) -> list[dict]:
+    keys = list(study.ladder)
+    return [{**study.base, **dict(zip(keys, values))} for values in itertools.product(*study.ladder.values())]
+
+
+def _run_id(study: Study, overrides: dict) -> str:
+    parts = [f"{key.rsplit('.', 1)[-1]}{_yaml(overrides[key])}" for key in study.ladder]
+    return "-".join(parts).replace("/", "_").replace(" ", "")
+
+
+def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tuple[dict, Path]]:
+    runs = out / "runs" / f"study-{study.name}"
+    config = _config_path(study, study_path)
+    todo = [(o, runs / _run_id(study, o)) for o in _combinations(study)]
+
+    def one(item):
+        overrides, folder = item
+        summary = folder / "summary.json"
+        if summary.exists() and json.loads(summary.read_text()).get("status") in ("completed", "diverged"):
+            return folder
+        folder.mkdir(parents=True, exist_ok=True)
+        cmd = [sys.executable, "-m", "cosserat_fsi.cli", "run", str(config), "--out", str(folder), "--no-progress",
+               "--set", "output.fields=false"]
+        for key, value in overrides.items():
+            cmd += ["--set", f"{key}={_yaml(value)}"]
+        if study.ranks > 1:
+            cmd = _launcher(study.ranks) + cmd
+        env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+        with open(folder / "stdout.log", "w") as log:
+            subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, env=env, check=False)
+        return folder
+
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        list(pool.map(one, todo))
+    return todo
+
+
+def _launcher(n: int) -> list[str]:
+    here = Path(sys.executable).parent
+    for name in ("mpiexec", "mpirun"):
+        exe = here / name
+        if exe.exists():
+            return [str(exe), "-n", str(n)]
+    return ["mpirun", "--allow-run-as-root", "-n", str(n)]
+
+
+def _measure(study: Study, folder: Path) -> dict | None:
+    path = folder / "summary.json"
+    if not path.exists():
+        return None
+    s = json.loads(path.read_text())
+    errors = {}
+    for key in study.observables:
+        name, _, part = key.partition(".")
+        entry = (s.get("benchmark") or {}).get(name) or {}
+        entry = entry.get(part) if part else entry
+        errors[key] = entry.get("error") if isinstance(entry, dict) else None
+    phases = s.get("wall_time", {}).get("phases", {})
+    steps = max(s.get("time", {}).get("steps", 1), 1)
+    return {"status": s.get("status"), "errors": errors, "wall": s["wall_time"]["total"],
+            "per_step": s["wall_time"]["per_step"], "phases": {p: phases.get(p, 0.0) / steps for p in PHASES},
+            "memory": (s.get("memory") or {}).get("peak_rss_mib_sum"), "vertices": s["mesh"]["vertices"],
+            "dofs": s["dofs"]["total"]}
+
+
+def pareto(points: list[tuple[float, float]]) -> list[int]:
+    """Indices of the points (cost, error) that no other point beats in both (lower is better)."""
+    front = []
+    for i, (c, e) in enumerate(points):
+        if not any((c2 <= c and e2 <= e) and (c2 < c or e2 < e) for j, (c2, e2) in enumerate(points) if j != i):
+            front.append(i)
+    return front
+
+
+def write_report(study: Study, todo, out: Path) -> Path:
+    rows, points, labels = [], [], []
+    head = ("| run | vertices | dofs | status | " + " | ".join(f"error {k}" for k in study.observables)
+            + " | wall (s) | s/step | " + " | ".join(PHASES) + " | peak memory (MiB) |")
+    rows += [head, "|" + "---|" * (head.count("|") - 1)]
+    for overrides, folder in todo:
+        m = _measure(study, folder)
+        run = folder.name
+        if m is None:
+            rows.append(f"| {run} | | | not run |" + " |" * (len(study.observables) + 3 + len(PHASES)))
+            continue
+        errs = [m["errors"][k] for k in study.observables]
+        rows.append(f"| {run} | {m['vertices']:,} | {m['dofs']:,} | {m['status']} | "
+                    + " | ".join("–" if e is None else f"{e:+.2%}" for e in errs)
+                    + f" | {m['wall']:.0f} | {m['per_step']:.4f} | "
+                    + " | ".join(f"{m['phases'][p]:.4f}" for p in PHASES)
+                    + f" | {'–' if m['memory'] is None else format(m['memory'], '.0f')} |")
+        if m["status"] == "completed" and all(e is not None for e in errs):
+            points.append((m["wall"], max(abs(e) for e in errs)))
+            labels.append(run)
+    front = pareto(points)
+    figure = _plot(study, points, labels, front, out) if points else None
+    lines = [f"# Study `{study.name}`", "",
+             f"Written by `cosserat-fsi study` from `{study.config}` with base overrides "
+             f"`{json.dumps(study.base)}` over the ladder `{json.dumps(study.ladder)}` "
+             f"({study.ranks} rank{'s' if study.ranks > 1 else ''}). Errors are relative to the benchmark's "
+             "reference; phases are seconds per step; peak memory is the sum over ranks.", "", *rows, ""]
+    if front:
+        lines += ["Pareto front (no other run is both faster and more accurate): "
+                  + ", ".join(f"`{labels[i]}` ({points[i][1]:.2%} in {points[i][0]:.0f} s)"
+                              for i in sorted(front, key=lambda i: points[i][0])), ""]
+    if figure:
+        lines += [f"![pareto]({figure})", ""]
+    path = out / f"study_{study.name}.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def _plot(study, points, labels, front, out: Path) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    xs, ys = [p[0] for p in points], [max(p[1], 1e-6) for p in points]
+    ax.loglog(xs, ys, "o", color="0.5")
+    for x, y, label in zip(xs, ys, labels):
+        ax.annotate(label, (x, y), fontsize=6, xytext=(3, 3), textcoords="offset points")
+    f = sorted(front, key=lambda i: xs[i])
+    ax.loglog([xs[i] for i in f], [ys[i] for i in f], "-o", color="C3", label="Pareto front")
+    ax.set_xlabel("wall time (s)")
+    ax.set_ylabel("worst relative error of " + ", ".join(study.observables))
+    ax.set_title(f"study {study.name}: accuracy against cost")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = out / "figures" / f"study_{study.name}_pareto.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return str(path.relative_to(out))
+
+
+def main_study(path, out=None, jobs: int = 1, report_only: bool = False) -> Path:
+    study_path = Path(path)
+    study = load_study(study_path)
+    out = Path(out) if out else ROOT / "docs"
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out: cannot write to {out} ({exc.strerror or exc})") from None
+    todo = ([(o, out / "runs" / f"study-{study.name}" / _run_id(study, o)) for o in _combinations(study)]
+            if report_only else run_all(study, study_path, out, jobs))
+    return write_report(study, todo, out)
