@@ -66,15 +66,22 @@ def plot_tip(runs: Path, out: Path, component: str, fig_no: int) -> str | None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(9, 4))
-    drawn = 0
+    drawn, extent = 0, 0.0
     for case_id in LEGEND:
         ts = _series(runs, case_id)
-        if ts is not None and component in ts:
-            ax.plot(ts["t"], ts[component], lw=0.8, label=LEGEND[case_id])
-            drawn += 1
+        if ts is None or component not in ts:
+            continue
+        diverged = (_summary(runs, case_id) or {}).get("status") == "diverged"
+        label = LEGEND[case_id] + (f" (diverged at t = {ts['t'][-1]:.2f})" if diverged else "")
+        ax.plot(ts["t"], ts[component], lw=0.8, ls="--" if diverged else "-", label=label)
+        if not diverged:
+            extent = max(extent, float(abs(ts[component]).max()))
+        drawn += 1
     if not drawn:
         plt.close(fig)
         return None
+    if extent > 0:  # the completed runs set the scale; a diverged one leaves the frame
+        ax.set_ylim(-1.3 * extent, 1.3 * extent)
     ax.set_xlabel("t (s)")
     ax.set_ylabel(f"{component[:2]}(A) (m)")
     ax.set_title(f"seed fig. {fig_no}: {'horizontal' if component == 'ux_A' else 'vertical'} displacement of A")
