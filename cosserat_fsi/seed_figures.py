@@ -162,13 +162,15 @@ def plot_comparison(runs: Path, out: Path) -> list[str]:
             va = _half_curl(fa, ia)
         else:
             va = va[:, comp] if comp is not None else va.ravel()
-        lim = float(max(np.abs(va).max(), np.abs(vb).max())) or 1.0
         fig, axes = plt.subplots(2, 1, figsize=(10, 5.5), layout="constrained")
-        _draw(axes[0], fa, ia, va, f"classical, t = {fa.times[ia]:.3g} s"
-              + (": ½ curl u (the classical fluid has no ω)" if comp is None else ""), cmap, (-lim, lim))
-        im = _draw(axes[1], fb, ib, vb, f"Cosserat μ_r = 0.1, λ1 = 1e-4, I = 1e-4, t = {fb.times[ib]:.3g} s",
-                   cmap, (-lim, lim))
-        fig.colorbar(im, ax=axes, shrink=0.8, label=label)
+        for ax, f, i, v, title in ((axes[0], fa, ia, va, f"classical, t = {fa.times[ia]:.3g} s"
+                                    + (": ½ curl u (the classical fluid has no ω)" if comp is None else "")),
+                                   (axes[1], fb, ib, vb, f"Cosserat μ_r = 0.1, λ1 = 1e-4, I = 1e-4, "
+                                    f"t = {fb.times[ib]:.3g} s")):
+            # one scale per panel (99th percentile): ω = 0 on the walls, ½ curl u peaks there
+            lim = float(np.percentile(np.abs(v), 99)) or 1.0
+            im = _draw(ax, f, i, v, title, cmap, (-lim, lim))
+            fig.colorbar(im, ax=ax, shrink=0.9, label=label)
         fig.suptitle(f"seed fig. {fig_no}: {label.split(' ')[0]}, classical against Cosserat")
         made.append(_save_plain(fig, out, f"seed_fig{fig_no}_{name}{'' if comp is None else '_xy'[comp + 1]}.png"))
     return made
