@@ -278,15 +278,19 @@ def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -
     if not series:
         return None
     ref = reference_for("turek_hron_fsi3")["uy_A"]
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(13, 4), gridspec_kw={"width_ratios": [2, 1]})
     for label, csv in series:
         ts = read_timeseries(csv)
         ax.plot(ts["t"], ts["uy_A"], lw=0.8, label=label)
-    ax.axhspan(ref["mean"] - ref["amplitude"], ref["mean"] + ref["amplitude"], color="0.85", zorder=0,
-               label="Turek–Hron FSI3 range of uy(A)")
-    ax.set_xlabel("t (s)")
+        last = ts["t"] >= ts["t"][-1] - 0.5
+        zoom.plot(ts["t"][last], ts["uy_A"][last], lw=1.0, label=label)
+    for a in (ax, zoom):
+        a.axhspan(ref["mean"] - ref["amplitude"], ref["mean"] + ref["amplitude"], color="0.85", zorder=0,
+                  label="Turek–Hron FSI3 range of uy(A)")
+        a.set_xlabel("t (s)")
     ax.set_ylabel("uy(A) (m)")
     ax.set_title(title)
+    zoom.set_title("last 0.5 s")
     ax.legend(fontsize=7, loc="lower left")
     return _save(fig, out, name)
 
