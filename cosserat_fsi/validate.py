@@ -352,6 +352,9 @@ def write_report(cases, runs: Path, out: Path) -> Path:
     for case in cases:
         if case.note:
             lines.append(f"- `{case.id}`: {case.note}")
+    lines += ["", "Cosserat FSI (seed figures 3–10) and the physics sanity check (Navier–Stokes with μ and with "
+              "μ + μ_r bracket the micropolar fluid): [seed_reproduction.md](seed_reproduction.md) (`make figures`). "
+              "Stability at the extremes: [extremes.md](extremes.md) (`make extremes`)."]
     if figure:
         lines += ["", f"![CFD3 lift]({figure})", ""]
     for f in extra:
