@@ -117,9 +117,10 @@ FSI_CASES = [
          "d += δt u on the solid nodes and the lifting from the reference operator it runs to t = 8; the "
          "oscillation only starts at t ≈ 4.6 (first-order numerical viscosity) and saturates by t ≈ 7"),
 ]
-# Seed figures 5–6: amplitude of uy(A) against the solid parameter c₁ (μ_s = 2 c₁), the seed's settings
+# Seed figures 5–6: amplitude of uy(A) against the solid parameter c₁ (μ_s = 2 c₁), the seed's settings,
+# run to t = 14 (at t = 8 the softer flags are still growing)
 C1_VALUES = (0.5e6, 0.75e6, 1.0e6, 1.5e6, 2.0e6)
-SWEEP_CASES = [Case(f"c1sweep-{c1:.3g}", "configs/seed_fsi3.yaml", {"solid.mu_s": 2 * c1}, {})
+SWEEP_CASES = [Case(f"c1sweep-{c1:.3g}", "configs/seed_fsi3.yaml", {"solid.mu_s": 2 * c1, "time.t_end": 14}, {})
                for c1 in C1_VALUES]
 _FIRST = ("st2d1-L1-c2-dt0.01", "st2d1-L2-c2-dt0.01", "cfd1-L1-c2-dt0.02", "cfd2-L1-c2-dt0.005",
           "cfd2-L1-c2-dt0.0025", "cfd3-seed-c1-dt0.005", "cfd3-seed-c2-dt0.005", "cfd3-L1-c2-dt0.0025",
@@ -133,10 +134,19 @@ def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
     """Run one case (unless it already finished) and return its output folder."""
     out = runs / case.id
     summary = out / "summary.json"
-    if summary.exists() and json.loads(summary.read_text()).get("status") == "completed":
-        return out
+    restart = []
+    if summary.exists():
+        done = json.loads(summary.read_text())
+        if done.get("status") == "completed":
+            from .config import load_scene
+
+            scene = load_scene(ROOT / case.config, [a for a in case.args() if a != "--set"])
+            if done["time"]["t_final"] >= scene.time.t_end - 0.5 * scene.time.dt:
+                return out
+            if (out / "checkpoint" / "meta.json").exists():  # a longer t_end: continue from the checkpoint
+                restart = ["--restart", str(out)]
     out.mkdir(parents=True, exist_ok=True)
-    cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / case.config), "--out", str(out),
+    cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / case.config), *(restart or ["--out", str(out)]),
            "--no-progress", "--set", f"output.fields={str(fields).lower()}", *case.args()]
     with open(out / "stdout.log", "w") as log:
         subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
