@@ -114,7 +114,9 @@ def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tu
         if summary.exists() and json.loads(summary.read_text()).get("status") in ("completed", "diverged"):
             return folder
         folder.mkdir(parents=True, exist_ok=True)
-        cmd = [sys.executable, "-m", "cosserat_fsi.cli", "run", str(config), "--out", str(folder), "--no-progress",
+        # an interrupted run (killed, machine restarted) continues from its last checkpoint
+        where = ["--restart", str(folder)] if (folder / "checkpoint" / "meta.json").exists() else ["--out", str(folder)]
+        cmd = [sys.executable, "-m", "cosserat_fsi.cli", "run", str(config), *where, "--no-progress",
                "--set", "output.fields=false"]
         for key, value in overrides.items():
             cmd += ["--set", f"{key}={_yaml(value)}"]

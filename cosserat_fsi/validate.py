@@ -145,6 +145,8 @@ def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
                 return out
             if (out / "checkpoint" / "meta.json").exists():  # a longer t_end: continue from the checkpoint
                 restart = ["--restart", str(out)]
+    elif (out / "checkpoint" / "meta.json").exists():  # interrupted (killed, machine restarted): resume
+        restart = ["--restart", str(out)]
     out.mkdir(parents=True, exist_ok=True)
     cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / case.config), *(restart or ["--out", str(out)]),
            "--no-progress", "--set", f"output.fields={str(fields).lower()}", *case.args()]
