@@ -7,6 +7,8 @@ The measured table of differences is in shared/reference/dolfinx_stacks.md.
 
 from __future__ import annotations
 
+import functools
+
 import logging
 
 try:  # the PyPI wheel must be bootstrapped before dolfinx is imported
@@ -127,6 +129,7 @@ def quadrature_space(mesh, degree: int, shape: tuple = ()):
     return dolfinx.fem.FunctionSpace(mesh, el)
 
 
+@functools.lru_cache(maxsize=None)
 def quadrature_points(degree: int) -> np.ndarray:
     """Reference points (triangle) of the default rule of ``degree``, in the order of quadrature_space."""
     import basix

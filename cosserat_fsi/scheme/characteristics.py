@@ -45,6 +45,7 @@ class PointLocator:
         J = np.stack([x[nodes[:, 1]] - x0, x[nodes[:, 2]] - x0], axis=2)  # (n, 2, 2): columns edges
         self.x0, self.J = x0, J
         self.Jinv = np.linalg.inv(J)
+        self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, 4))
 
     def dofs(self, V) -> np.ndarray:
         """Cell dof table of a space (cached per space)."""
@@ -55,8 +56,8 @@ class PointLocator:
 
     def _inside(self, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """Barycentric test: is each point in the given local cell?"""
-        lam = np.einsum("nij,nj->ni", self.Jinv[cells], points[:, :2] - self.x0[cells])
-        return np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1.0 - lam[:, 0] - lam[:, 1]) >= -_TOL
+        l1, l2 = barycentric(self, points, cells)
+        return np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
 
     def locate(self, points: np.ndarray, owned_only: bool = False, hint=None) -> np.ndarray:
         """Local cell index per point (−1 if none). ``points`` has shape (n, 3).
@@ -90,25 +91,55 @@ class PointLocator:
         return cells
 
 
+def barycentric(locator: PointLocator, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Barycentric coordinates (λ1, λ2) of points in given local cells (λ0 = 1 − λ1 − λ2)."""
+    Jinv = locator.Jinv_flat[cells]  # (n, 4): rows of J^{-1}
+    x0 = locator.x0[cells]
+    dx, dy = points[:, 0] - x0[:, 0], points[:, 1] - x0[:, 1]
+    return Jinv[:, 0] * dx + Jinv[:, 1] * dy, Jinv[:, 2] * dx + Jinv[:, 3] * dy
+
+
+def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
+    """The six P2 Lagrange basis functions at barycentric points, shape (n, 6).
+
+    λ_i(2λ_i − 1) at the vertices and 4λ_jλ_k at the edges (basix order: edge 0 = (1, 2), 1 = (0, 2),
+    2 = (0, 1)).
+    """
+    l0 = 1.0 - l1 - l2
+    return np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1),
+                     4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
+
+
+def combine(locator: PointLocator, f, phi: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Σ_k φ_k c_k: values of the P2 field ``f`` from basis values ``phi`` (n, 6) in ``cells``."""
+    bs = f.function_space.dofmap.index_map_bs
+    coeffs = f.x.array.reshape(-1, bs)[locator.dofs(f.function_space)[cells]]  # (n, 6, bs)
+    out = phi[:, 0, None] * coeffs[:, 0]
+    for k in range(1, 6):
+        out += phi[:, k, None] * coeffs[:, k]
+    return out
+
+
+def is_p2(locator: PointLocator, f) -> bool:
+    return locator.dofs(f.function_space).shape[1] == 6
+
+
 def eval_at(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Values of ``f`` at points in known local cells, shape (n, value_size).
 
     P2 Lagrange fields on affine triangles (every field the characteristics transport) are evaluated
-    here, vectorised: barycentric coordinates λ from the cell's affine map, basis λ_i(2λ_i − 1) at the
-    vertices and 4λ_jλ_k at the edges (basix order: edge 0 = (1, 2), 1 = (0, 2), 2 = (0, 1)). Anything
-    else goes to dolfinx's Function.eval.
+    here, vectorised (``p2_basis``); anything else goes to dolfinx's Function.eval.
     """
-    V = f.function_space
-    dofs = locator.dofs(V)
-    if dofs.shape[1] != 6 or len(points) == 0:
+    if len(points) == 0 or not is_p2(locator, f):
         return f.eval(points, cells).reshape(len(points), -1)
-    l1, l2 = np.einsum("nij,nj->ni", locator.Jinv[cells], points[:, :2] - locator.x0[cells]).T
-    l0 = 1.0 - l1 - l2
-    phi = np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1),
-                    4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)  # (n, 6)
-    bs = V.dofmap.index_map_bs
-    coeffs = f.x.array.reshape(-1, bs)[dofs[cells]]  # (n, 6, bs)
-    return np.einsum("nk,nkb->nb", phi, coeffs)
+    return combine(locator, f, p2_basis(*barycentric(locator, points, cells)), cells)
+
+
+def eval_many(locator: PointLocator, functions, points: np.ndarray, cells: np.ndarray) -> list[np.ndarray]:
+    """``eval_at`` for several fields at the same points: the basis is computed once."""
+    phi = p2_basis(*barycentric(locator, points, cells)) if len(points) else None
+    return [combine(locator, f, phi, cells) if phi is not None and is_p2(locator, f)
+            else eval_at(locator, f, points, cells) for f in functions]
 
 
 def evaluate(locator: PointLocator, functions, points: np.ndarray, anchors: np.ndarray,
@@ -147,9 +178,9 @@ def _evaluate_anywhere(locator, functions, pts, comm, hint=None):
     values = [np.zeros((len(pts), _value_count(f))) for f in functions]
     cells = locator.locate(pts, hint=hint)
     found = cells >= 0
-    for f, val in zip(functions, values):
-        if found.any():
-            val[found] = eval_at(locator, f, pts[found], cells[found])
+    if found.any() and functions:
+        for val, v in zip(values, eval_many(locator, functions, pts[found], cells[found])):
+            val[found] = v
     lost = np.flatnonzero(~found)
     found[lost] = _remote_evaluate(locator, functions, pts[lost], values, lost, comm)
     return values, found
@@ -226,6 +257,16 @@ class Characteristics:
         out = np.zeros((n_cells * nq, 3))
         out[:, :2] = pts.reshape(-1, 2)
         return out, np.repeat(np.arange(n_cells, dtype=np.int32), nq)
+
+    def at_quadrature_nodes(self, f, degree: int) -> np.ndarray:
+        """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference
+        points is the same in every cell, so this is one small matrix product per cell."""
+        ref = compat.quadrature_points(degree)
+        phi = p2_basis(ref[:, 0], ref[:, 1])  # (nq, 6)
+        n_cells = len(self.locator.x0)
+        bs = f.function_space.dofmap.index_map_bs
+        coeffs = f.x.array.reshape(-1, bs)[self.locator.dofs(f.function_space)[:n_cells]]  # (c, 6, bs)
+        return np.einsum("qk,ckb->cqb", phi, coeffs, optimize=True).reshape(-1, bs)
 
     def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
         """Reorder values at local V nodes to the local nodes of S."""

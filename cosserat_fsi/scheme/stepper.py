@@ -17,7 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..errors import DivergenceError, InputError
 from ..physics import fluid, solid
-from .characteristics import Characteristics, eval_at, evaluate
+from .characteristics import Characteristics, evaluate
 from .mesh_motion import MeshMotion, PrescribedMotion
 from .spaces import mixed_space
 
@@ -405,7 +405,7 @@ class Stepper:
             x, cells = chars.quadrature_nodes(self.quadrature_degree)
 
             def at_x(f):
-                return eval_at(chars.locator, f, x, cells)
+                return chars.at_quadrature_nodes(f, self.quadrature_degree)
         else:
             x, cells = chars.nodes(), None
 
