@@ -29,6 +29,7 @@ FSI = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid":
        "solid": {"rho": 1000.0, "mu_s": 5.0e4}, "inflow": {"u_mean": 1.0, "ramp_time": 0.05},
        "time": {"dt": 0.01, "t_end": 0.16}, "solver": {"reuse_factorization": False},
        "output": {"every": 3, "checkpoint_every": 8, "progress": False}}
+FSI_BDF2 = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2"}}
 
 
 @pytest.fixture
@@ -51,7 +52,7 @@ def _fields(path: Path) -> dict:
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("raw", [ST, FSI], ids=["navier_stokes_bdf2", "fsi_moving_mesh"])
+@pytest.mark.parametrize("raw", [ST, FSI, FSI_BDF2], ids=["navier_stokes_bdf2", "fsi_moving_mesh", "fsi_bdf2"])
 def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
     comm = MPI.COMM_WORLD
     scene = validate_scene(raw)

@@ -26,20 +26,29 @@ _TOL = 1e-10  # barycentric tolerance, relative to the reference triangle
 class PointLocator:
     """Finds, for points in physical space, a local cell containing each (affine triangles)."""
 
-    def __init__(self, mesh):
+    def __init__(self, mesh, coordinates: np.ndarray | None = None):
         self.mesh = mesh
         self._dofs = {}
-        self.update()
+        self.update(coordinates)
 
-    def update(self):
-        """Rebuild the search structures (call after the mesh moved)."""
+    def update(self, coordinates: np.ndarray | None = None):
+        """Rebuild the search structures (call after the mesh moved). ``coordinates``: the (n, 2) node
+        coordinates of another configuration of the same mesh (an earlier time level) to locate in."""
         mesh = self.mesh
         tdim = mesh.topology.dim
         imap = mesh.topology.index_map(tdim)
         self.num_owned = imap.size_local
         n_cells = imap.size_local + imap.num_ghosts
-        self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
-        x = mesh.geometry.x[:, :2]
+        if coordinates is None:
+            self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
+        else:  # the tree is built from the geometry: lend it the other coordinates meanwhile
+            current = mesh.geometry.x[:, :2].copy()
+            mesh.geometry.x[:, :2] = coordinates
+            try:
+                self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
+            finally:
+                mesh.geometry.x[:, :2] = current
+        x = mesh.geometry.x[:, :2] if coordinates is None else np.asarray(coordinates)
         nodes = compat.geometry_dofmap(mesh)[:n_cells, :3]
         x0 = x[nodes[:, 0]]
         J = np.stack([x[nodes[:, 1]] - x0, x[nodes[:, 2]] - x0], axis=2)  # (n, 2, 2): columns edges
@@ -247,10 +256,10 @@ class Characteristics:
         bs = f.function_space.dofmap.index_map_bs
         return f.x.array[: self.n_nodes * bs].reshape(-1, bs)
 
-    def quadrature_nodes(self, degree: int):
+    def quadrature_nodes(self, degree: int, locator: PointLocator | None = None):
         """Quadrature points of the default rule of ``degree`` in every local cell, from the current
-        geometry: (points (n_cells·nq, 3), their cells)."""
-        locator = self.locator
+        geometry (or that of ``locator``): (points (n_cells·nq, 3), their cells)."""
+        locator = locator or self.locator
         ref = compat.quadrature_points(degree)
         pts = locator.x0[:, None, :] + np.einsum("cij,kj->cki", locator.J, ref)
         n_cells, nq = pts.shape[:2]

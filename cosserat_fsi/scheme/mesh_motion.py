@@ -76,6 +76,7 @@ class MeshMotion(_MovingMesh):
         super().__init__(mesh, comm)
         M, tdim = self.M, mesh.topology.dim
         self.solid_displacement = dolfinx.fem.Function(M)
+        self.solid_displacement_nm1 = dolfinx.fem.Function(M)  # for BDF2
         self._u_P1 = dolfinx.fem.Function(M)
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
@@ -106,11 +107,15 @@ class MeshMotion(_MovingMesh):
         self.b = compat.create_vector(self.L, M)
         self._new = dolfinx.fem.Function(M)
 
-    def move(self, velocity, dt: float, t: float):
-        """Solid vertices += δt u^{n+1}; fluid vertices: harmonic extension. Returns the mesh velocity (P1)."""
+    def move(self, velocity, dt: float, t: float, alpha: float = 1.0):
+        """Solid vertices += δt u^{n+1} (α = 1) or s^{n+1} = (4s^n − s^{n−1})/3 + (2δt/3) u^{n+1} (BDF2,
+        α = 3/2), as the displacement d; fluid vertices: harmonic extension. Returns the mesh velocity (P1)."""
         self._u_P1.interpolate(velocity)
         entries = self._solid_entries
-        self.solid_displacement.x.array[entries] += dt * self._u_P1.x.array[entries]
+        s, s_nm1 = self.solid_displacement.x.array, self.solid_displacement_nm1.x.array
+        s_star = s[entries] if alpha == 1.0 else (4.0 * s[entries] - s_nm1[entries]) / 3.0
+        s_nm1[:] = s
+        s[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
         self.solid_displacement.x.scatter_forward()
         self.A0.mult(compat.petsc_vec(self.solid_displacement), self.b)  # b = −A0 g, g = 0 off the solid
         self.b.scale(-1.0)
@@ -133,7 +138,7 @@ class PrescribedMotion(_MovingMesh):
         self._X0_dof[self.node_dof[:n]] = self.X0
         self.motion = motion
 
-    def move(self, velocity, dt: float, t: float):
+    def move(self, velocity, dt: float, t: float, alpha: float = 1.0):
         return self._apply(np.asarray(self.motion(self._X0_dof, t), dtype=float).ravel(), dt, t)
 
 

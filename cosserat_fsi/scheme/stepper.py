@@ -17,7 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..errors import DivergenceError, InputError
 from ..physics import fluid, solid
-from .characteristics import Characteristics, evaluate
+from .characteristics import Characteristics, PointLocator, evaluate
 from .mesh_motion import MeshMotion, PrescribedMotion
 from .spaces import mixed_space
 
@@ -98,8 +98,6 @@ class Stepper:
         reference coordinates that the mesh follows instead of the material (ALE verification)."""
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.model = Model.from_scene(scene)
-        if self.model.solid and scene.time.scheme != "characteristics1":
-            raise InputError("time.scheme: only characteristics1 is available with a solid (moving mesh) so far")
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
         self.timers = Timers()
         self.dt = float(scene.time.dt)
@@ -128,17 +126,25 @@ class Stepper:
             self.omega_hist = dolfinx.fem.Function(
                 compat.quadrature_space(mesh, self.quadrature_degree) if self.quadrature_degree else S)
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.model.micro_rotation else None, comm)
-        self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
+        self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")  # (x^n − x^{n−1})/δt
         self.motion = None
         if self.model.solid:
             self.d_n = dolfinx.fem.Function(V, name="displacement")
+            self.d_nm1 = dolfinx.fem.Function(V)
+            # the solid terms are linearised around d* = d^n (first order) or (4d^n − d^{n−1})/3 (BDF2),
+            # with d^{n+1} = d* + (δt/α) u^{n+1}
+            self.d_star = dolfinx.fem.Function(V)
             solid_cells = cell_tags.indices[cell_tags.values == SOLID]
             self.solid_dofs = dolfinx.fem.locate_dofs_topological(V, mesh.topology.dim, solid_cells)
             self.motion = MeshMotion(mesh, cell_tags, comm)
         if prescribed_motion is not None:
-            if self.order != 1:
-                raise InputError("time.scheme: only characteristics1 is available on a moving mesh so far")
             self.motion = PrescribedMotion(mesh, prescribed_motion, comm)
+        if self.motion is not None and self.order == 2:
+            # displacement of the configurations u^n and u^{n−1} were computed on (Ω^{n−1}, Ω^{n−2})
+            self.mesh_displacement_n = dolfinx.fem.Function(self.motion.M)
+            self.mesh_displacement_nm1 = dolfinx.fem.Function(self.motion.M)
+            self._history_locators = (self.chars.locator, self.chars.locator)
+            self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
 
         self._constants()
         self._forms()
@@ -187,7 +193,7 @@ class Stepper:
                 self._gravity_update = lambda t: self.f.x.array.__setitem__(
                     slice(None), fluid_part + ramp(t, ramp_time) * (full - fluid_part))
             self.mu_s = self._const(s.solid.mu_s)
-            self.dt_const = self._const(self.dt)
+            self.solid_dt = self._const(self.dt)  # δt/α
         else:
             self.rho = self._const(rho_f)
             self.f = dolfinx.fem.Constant(self.mesh, body)
@@ -233,11 +239,11 @@ class Stepper:
                                              mesh=self.mesh)
         if self.model.solid:
             dx_solid = ufl.dx(domain=self.mesh, subdomain_data=self.cell_tags)(SOLID)
-            a_s, L_s = solid.mooney_rivlin(trial[i_u], test[i_u], self.d_n, mu_s=self.mu_s, dt=self.dt_const,
+            a_s, L_s = solid.mooney_rivlin(trial[i_u], test[i_u], self.d_star, mu_s=self.mu_s, dt=self.solid_dt,
                                            dx_solid=dx_solid)
             a, L = a + a_s, L + L_s
             if self.scene.solid.volume_correction:
-                L = L + solid.volume_correction(test[i_p], self.d_n, dt=self.dt_const, dx_solid=dx_solid)
+                L = L + solid.volume_correction(test[i_p], self.d_star, dt=self.solid_dt, dx_solid=dx_solid)
         self.a_form, self.L_form = compat.form(a), compat.form(L)
 
     def facets(self, *names):
@@ -385,6 +391,8 @@ class Stepper:
             return
         with self.timers("assemble_matrix"):
             self.alpha.value = alpha
+            if self.model.solid:
+                self.solid_dt.value = self.dt / alpha
             if self.A is None:
                 self.A = fem_petsc.assemble_matrix(self.a_form, bcs=self.bcs)
             else:
@@ -416,9 +424,26 @@ class Stepper:
             w_x = at_x(self.mesh_velocity) if self.motion is not None else 0.0
             hist = self._at_feet(x, x - self.dt * _pad(u_x - w_x), fns_n, cells)
         else:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
-            u_star = _pad(2.0 * u_x - at_x(self.u_nm1))
-            vals1 = self._at_feet(x, x - self.dt * u_star, fns_n, cells)
-            vals2 = self._at_feet(x, x - 2.0 * self.dt * u_star, fns_nm1, cells)
+            if self.motion is None:
+                u_star = _pad(2.0 * u_x - at_x(self.u_nm1))
+                vals1 = self._at_feet(x, x - self.dt * u_star, fns_n, cells)
+                vals2 = self._at_feet(x, x - 2.0 * self.dt * u_star, fns_nm1, cells)
+            else:
+                # moving mesh: u^n (and ω^n) live on Ω^{n−1}, u^{n−1} on Ω^{n−2}, where they were computed;
+                # the feet (physical points) are located in those configurations of the mesh. A mesh-
+                # velocity shift of the feet (as in the first-order scheme) is only O(δt²) accurate
+                # per step, which would make the scheme first order.
+                # Points outside such an earlier configuration (its boundary moved: a solid-only scene)
+                # are pulled back to the image of x in it (same cell, same barycentric coordinates).
+                loc_n, loc_nm1 = self._history_locators
+                x_n, x_nm1 = (self._earlier_position(x, loc, disp)
+                              for loc, disp in ((loc_n, self.mesh_displacement_n),
+                                                (loc_nm1, self.mesh_displacement_nm1)))
+                (un_x,) = evaluate(loc_n, [self.u_n], x, x_n, self.comm, hint=cells)
+                (unm1_x,) = evaluate(loc_nm1, [self.u_nm1], x, x_nm1, self.comm, hint=cells)
+                u_star = _pad(2.0 * un_x - unm1_x)
+                vals1 = evaluate(loc_n, fns_n, x - self.dt * u_star, x_n, self.comm, hint=cells)
+                vals2 = evaluate(loc_nm1, fns_nm1, x - 2.0 * self.dt * u_star, x_nm1, self.comm, hint=cells)
             hist = [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
         if self.quadrature_degree:
             self._set_quadrature(self.u_hist, hist[0])
@@ -431,6 +456,17 @@ class Stepper:
             if micro:
                 self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
                 self.omega_hist.x.scatter_forward()
+
+    def _earlier_position(self, x, locator, displacement):
+        """Where the points x of the current mesh were in an earlier configuration of it (``locator``,
+        reached with the P1 vertex ``displacement``): the same cell and barycentric coordinates."""
+        if self.quadrature_degree:
+            return self.chars.quadrature_nodes(self.quadrature_degree, locator)[0]
+        shift = self._shift
+        shift.interpolate(displacement)
+        current = self._shift_current
+        current.interpolate(self.motion.displacement)
+        return x - _pad(self.chars.nodal(current) - self.chars.nodal(shift))
 
     def _at_feet(self, anchors, feet, functions, cells=None):
         return evaluate(self.chars.locator, functions, feet, anchors, self.comm, hint=cells)
@@ -449,6 +485,9 @@ class Stepper:
         ``before_move`` is called after the solve, while the mesh is still Ω^n (observables).
         """
         alpha = 1.0 if (self.order == 1 or self.step_count == 0) else 1.5
+        if self.model.solid:
+            d_star = self.d_star.x.array
+            d_star[:] = self.d_n.x.array if alpha == 1.0 else (4.0 * self.d_n.x.array - self.d_nm1.x.array) / 3.0
         self._matrix(alpha)
         t_new = (self.step_count + 1) * self.dt
         for update in self._updates + self._source_updates:
@@ -476,15 +515,17 @@ class Stepper:
             self.omega_n.x.array[:] = self.w.x.array[sp.dofs("micro_rotation")]
         if self.model.solid:
             # seed §5.1: d^{n+1} = d^n∘X^n + δt u^{n+1}. The solid nodes move with the material, so in
-            # their frame X^n is the identity: d^{n+1}_i = d^n_i + δt u^{n+1}_i (exact at the vertices;
+            # their frame X^n is the identity: d^{n+1}_i = d^n_i + δt u^{n+1}_i (BDF2: d*_i + (2δt/3) u^{n+1}_i,
+            # d* = (4d^n − d^{n−1})/3) (exact at the vertices;
             # at the P2 mid-edge nodes up to O(δt h² ∇²u) per step). Back-tracking d with the ALE
             # velocity u − w instead (w the P1 mesh velocity) gives the same vertices but lets the
             # mid-edge values drift from them; on the seed's FSI3 run that drift triggers a local
             # pressure blow-up at the flag tip (t = 6.09 at δt = 0.005, earlier at smaller δt).
-            d = self.d_n.x.array.reshape(-1, 2)
+            self.d_nm1.x.array[:] = self.d_n.x.array
+            d, d_star = self.d_n.x.array.reshape(-1, 2), self.d_star.x.array.reshape(-1, 2)
             u = self.u_n.x.array.reshape(-1, 2)
             nodes = self.solid_dofs
-            d[nodes] += self.dt * u[nodes]
+            d[nodes] = d_star[nodes] + (self.dt / alpha) * u[nodes]
             self.d_n.x.scatter_forward()
         self.t = t_new
         self.step_count += 1
@@ -492,9 +533,16 @@ class Stepper:
             before_move()
         if self.motion is not None:
             with self.timers("mesh_motion"):
-                w_P1 = self.motion.move(self.u_n, self.dt, self.t)
+                if self.order == 2:  # the configuration u^n was computed on, for the next BDF2 feet
+                    self.mesh_displacement_nm1.x.array[:] = self.mesh_displacement_n.x.array
+                    self.mesh_displacement_n.x.array[:] = self.motion.displacement.x.array
+                    self._history_locators = (self.chars.locator, self._history_locators[0])
+                w_P1 = self.motion.move(self.u_n, self.dt, self.t, alpha)
                 self.mesh_velocity.interpolate(w_P1)
-                self.chars.locator.update()
+                if self.order == 2:
+                    self.chars.locator = PointLocator(self.mesh)
+                else:
+                    self.chars.locator.update()
 
     def _check_finite(self, t):
         bad = not np.isfinite(self.w.x.array).all()
@@ -510,6 +558,13 @@ class Stepper:
             fns.update(omega_n=self.omega_n, omega_nm1=self.omega_nm1)
         if self.model.solid:
             fns["d_n"] = self.d_n
+            if self.order == 2:
+                fns["d_nm1"] = self.d_nm1
+        if self.motion is not None and self.order == 2:
+            fns["mesh_displacement_n"] = self.mesh_displacement_n
+            fns["mesh_displacement_nm1"] = self.mesh_displacement_nm1
+            if hasattr(self.motion, "solid_displacement_nm1"):
+                fns["solid_displacement_nm1"] = self.motion.solid_displacement_nm1
         if self.motion is not None:
             fns["mesh_displacement"] = self.motion.displacement
             fns["mesh_velocity_P1"] = self.motion.velocity
@@ -564,6 +619,10 @@ class Stepper:
             m = self.motion
             self.mesh.geometry.x[:, :2] = m.X0 + m.displacement.x.array.reshape(-1, 2)[m.node_dof]
             self.chars.locator.update()
+            if self.order == 2:
+                self._history_locators = tuple(
+                    PointLocator(self.mesh, m.X0 + f.x.array.reshape(-1, 2)[m.node_dof])
+                    for f in (self.mesh_displacement_n, self.mesh_displacement_nm1))
         self.A, self._alpha_of_A = None, None
 
     # ----------------------------------------------------------------------------------- sizes
