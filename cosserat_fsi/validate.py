@@ -110,6 +110,13 @@ FSI_CASES = [
     Case("fsi3-L1-dt0.001", "configs/turek_hron_fsi3.yaml", {}, FSI3),
     Case("fsi3-L1-dt0.001-eq", "configs/turek_hron_fsi3.yaml", {"solid.mu_s": 2.0e6 * EQ}, FSI3,
          "FSI3 with the bending-equivalent μ_s = 1.667e6"),
+    Case("fsi3-seed-c2-dt0.005", "configs/turek_hron_fsi3.yaml",
+         {"geometry.level": "seed", "time.dt": 0.005, "time.scheme": "characteristics2"}, FSI3,
+         "BDF2 everywhere (fluid, solid, mesh motion) at the seed's δt"),
+    Case("fsi3-seed-c2-dt0.002", "configs/turek_hron_fsi3.yaml",
+         {"geometry.level": "seed", "time.dt": 0.002, "time.scheme": "characteristics2"}, FSI3),
+    Case("fsi3-L1-c2-dt0.002", "configs/turek_hron_fsi3.yaml", {"time.dt": 0.002, "time.scheme": "characteristics2"},
+         FSI3),
     Case("seed-dt0.005", "configs/seed_fsi3.yaml", {}, SEED,
          "the seed's own run, against the seed's ≈ 4.5 Hz, ≈ 0.03 m. It used to diverge at t = 6.09 (a "
          "pressure blow-up at the flag tip): back-tracking d with the ALE velocity let the mid-edge values "
