@@ -122,11 +122,11 @@ def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
 def combine(locator: PointLocator, f, phi: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Σ_k φ_k c_k: values of the P2 field ``f`` from basis values ``phi`` (n, 6) in ``cells``."""
     bs = f.function_space.dofmap.index_map_bs
-    coeffs = f.x.array.reshape(-1, bs)[locator.dofs(f.function_space)[cells]]  # (n, 6, bs)
-    out = phi[:, 0, None] * coeffs[:, 0]
-    for k in range(1, 6):
-        out += phi[:, k, None] * coeffs[:, k]
-    return out
+    idx = locator.dofs(f.function_space)[cells]  # (n, 6)
+    values = f.x.array.reshape(-1, bs)
+    # one gather per component (np.take on a contiguous copy): ~4x faster than a (n, 6, bs) gather
+    return np.stack([(phi * np.take(np.ascontiguousarray(values[:, b]), idx)).sum(axis=1) for b in range(bs)],
+                    axis=1)
 
 
 def is_p2(locator: PointLocator, f) -> bool:
