@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Sequence
 
 import yaml
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from cosserat_fsi.errors import InputError
@@ -31,6 +32,8 @@ GEOMETRY_OF_BENCHMARK = {
     "turek_hron_fsi2": ("turek_hron", "solid"),
     "turek_hron_fsi3": ("turek_hron", "solid"),
     "seed_fsi3": ("turek_hron", "solid"),
+    "micropolar_poiseuille": ("channel", None),
+    "micropolar_taylor_green": ("square", None),
 }
 """Benchmark name -> (required geometry.name, required geometry.flag or None)."""
 
@@ -40,6 +43,7 @@ Benchmark = Literal[
     "turek_hron_csm1", "turek_hron_csm2",
     "turek_hron_fsi1", "turek_hron_fsi2", "turek_hron_fsi3",
     "seed_fsi3",
+    "micropolar_poiseuille", "micropolar_taylor_green",
 ]
 MAX_LEVEL = 6
 
@@ -284,6 +288,16 @@ class Scene(_Section):
             if need_flag is not None and geo.flag != need_flag:
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} "
                                  f"(got {geo.flag!r})")
+        if self.benchmark in ("micropolar_poiseuille", "micropolar_taylor_green"):
+            m = self.micropolar
+            if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
+                raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
+            if self.benchmark == "micropolar_taylor_green":
+                if abs(geo.length - np.pi) > 1e-6:
+                    raise ValueError(f"geometry.length: micropolar_taylor_green is on a square of side pi "
+                                     f"(3.14159265358979, got {geo.length!r})")
+                if m.inertia <= 0 and self.has_micropolar:
+                    raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
         if geo.flag == "solid" and self.solid is None:
             raise ValueError("solid: missing section (geometry.flag is solid; "
                              "use geometry.flag: rigid for a fluid-only run)")
