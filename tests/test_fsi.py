@@ -195,11 +195,13 @@ def test_inverted_cell_stops_with_exit_3(repo_root, tmp_path):
 
 
 @pytest.mark.mpi
-def test_fsi_serial_equals_parallel():
+@pytest.mark.parametrize("scheme", ["characteristics1", "characteristics2"])
+def test_fsi_serial_equals_parallel(scheme):
     """Tip displacement, forces and energies of a short FSI run: COMM_WORLD (1 or 2 ranks) = COMM_SELF."""
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},
                             "fluid": {"rho": 1000.0, "mu": 1.0}, "solid": {"rho": 1000.0, "mu_s": 0.5e5},
-                            "inflow": {"u_mean": 1.0, "ramp_time": 0.1}, "time": {"dt": 0.01, "t_end": 0.2}})
+                            "inflow": {"u_mean": 1.0, "ramp_time": 0.1},
+                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": scheme}})
     _, parallel = _run(scene, MPI.COMM_WORLD)
     _, serial = _run(scene, MPI.COMM_SELF)
     for key in ("uy_A", "ux_A", "drag", "lift", "energy_total"):
