@@ -167,10 +167,12 @@ figures: $(RUN_SETUP)
 extremes: $(RUN_SETUP)
 	$(PY) -m cosserat_fsi.extremes
 
-# Speed/accuracy ladders (studies/*.yaml) into docs/study_<name>.md + Pareto plots (hours on 2 cores;
+# Speed/accuracy ladders (studies/*.yaml) into docs/study_<name>.md + Pareto plots, then the extremes
+# (hours on 2 cores;
 # finished runs are kept, so it resumes)
 study: $(RUN_SETUP)
 	@for s in studies/*.yaml; do $(PY) -m cosserat_fsi.cli study $$s --jobs 2 || exit 1; done
+	$(PY) -m cosserat_fsi.extremes
 
 info: setup setup-latest
 	@echo "=== Debian stack ($(VENV)) ==="
