@@ -48,6 +48,15 @@ class _MovingMesh:
     def _apply(self, new_displacement: np.ndarray, dt: float, t: float):
         """Move to X0 + new_displacement (P1 dof array); DivergenceError (mesh untouched) if a cell would
         invert or degenerate (area below 1e-3 of its reference)."""
+        self.place(new_displacement, t)
+        self.velocity.x.array[:] = (new_displacement - self.displacement.x.array) / dt
+        self.displacement.x.array[:] = new_displacement
+        return self.velocity
+
+    def place(self, displacement: np.ndarray, t: float):
+        """Put the mesh at X0 + displacement (P1 dof array) after checking its cells (DivergenceError and
+        the mesh untouched if one would invert or degenerate). ``self.displacement`` is not changed."""
+        new_displacement = displacement
         x = self.mesh.geometry.x
         old = x[:, :2].copy()
         x[:, :2] = self.X0 + new_displacement.reshape(-1, 2)[self.node_dof]
@@ -64,9 +73,6 @@ class _MovingMesh:
             raise DivergenceError(f"t = {t:.6g}: the mesh motion would make a cell {kind} near "
                                   f"({where[0]:.4g}, {where[1]:.4g}); try a smaller time.dt, "
                                   f"or the deformation is too large for a moving mesh")
-        self.velocity.x.array[:] = (new_displacement - self.displacement.x.array) / dt
-        self.displacement.x.array[:] = new_displacement
-        return self.velocity
 
 
 class MeshMotion(_MovingMesh):

@@ -141,6 +141,10 @@ class Stepper:
             self.motion = PrescribedMotion(mesh, prescribed_motion, comm)
         if self.motion is not None and self.order == 2:
             # displacement of the configurations u^n and u^{n−1} were computed on (Ω^{n−1}, Ω^{n−2})
+            # BDF2 solves on the extrapolated configuration Ω* = X + (4D^n − D^{n−1})/3 (second order in
+            # the geometry: solving on Ω^n would be first order); D^{n−1} is kept for it
+            self.mesh_displacement_prev = dolfinx.fem.Function(self.motion.M)  # D^{n−1}
+            self.solve_displacement = dolfinx.fem.Function(self.motion.M)  # Ω* − X
             self.mesh_displacement_n = dolfinx.fem.Function(self.motion.M)
             self.mesh_displacement_nm1 = dolfinx.fem.Function(self.motion.M)
             self._history_locators = (self.chars.locator, self.chars.locator)
@@ -457,6 +461,16 @@ class Stepper:
                 self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
                 self.omega_hist.x.scatter_forward()
 
+    def _to_solve_configuration(self, alpha: float):
+        """BDF2 on a moving mesh: put the mesh at Ω* = X + (4D^n − D^{n−1})/3 (Ω^n for the first-order
+        start step), where d* = (4d^n − d^{n−1})/3 lives, and locate in it."""
+        m = self.motion
+        D = m.displacement.x.array
+        E = self.solve_displacement.x.array
+        E[:] = D if alpha == 1.0 else (4.0 * D - self.mesh_displacement_prev.x.array) / 3.0
+        m.place(E, self.t)
+        self.chars.locator = PointLocator(self.mesh)
+
     def _earlier_position(self, x, locator, displacement):
         """Where the points x of the current mesh were in an earlier configuration of it (``locator``,
         reached with the P1 vertex ``displacement``): the same cell and barycentric coordinates."""
@@ -465,7 +479,7 @@ class Stepper:
         shift = self._shift
         shift.interpolate(displacement)
         current = self._shift_current
-        current.interpolate(self.motion.displacement)
+        current.interpolate(self.solve_displacement)
         return x - _pad(self.chars.nodal(current) - self.chars.nodal(shift))
 
     def _at_feet(self, anchors, feet, functions, cells=None):
@@ -485,6 +499,9 @@ class Stepper:
         ``before_move`` is called after the solve, while the mesh is still Ω^n (observables).
         """
         alpha = 1.0 if (self.order == 1 or self.step_count == 0) else 1.5
+        if self.motion is not None and self.order == 2:
+            with self.timers("mesh_motion"):
+                self._to_solve_configuration(alpha)
         if self.model.solid:
             d_star = self.d_star.x.array
             d_star[:] = self.d_n.x.array if alpha == 1.0 else (4.0 * self.d_n.x.array - self.d_nm1.x.array) / 3.0
@@ -535,7 +552,8 @@ class Stepper:
             with self.timers("mesh_motion"):
                 if self.order == 2:  # the configuration u^n was computed on, for the next BDF2 feet
                     self.mesh_displacement_nm1.x.array[:] = self.mesh_displacement_n.x.array
-                    self.mesh_displacement_n.x.array[:] = self.motion.displacement.x.array
+                    self.mesh_displacement_n.x.array[:] = self.solve_displacement.x.array
+                    self.mesh_displacement_prev.x.array[:] = self.motion.displacement.x.array
                     self._history_locators = (self.chars.locator, self._history_locators[0])
                 w_P1 = self.motion.move(self.u_n, self.dt, self.t, alpha)
                 self.mesh_velocity.interpolate(w_P1)
@@ -561,6 +579,7 @@ class Stepper:
             if self.order == 2:
                 fns["d_nm1"] = self.d_nm1
         if self.motion is not None and self.order == 2:
+            fns["mesh_displacement_prev"] = self.mesh_displacement_prev
             fns["mesh_displacement_n"] = self.mesh_displacement_n
             fns["mesh_displacement_nm1"] = self.mesh_displacement_nm1
             if hasattr(self.motion, "solid_displacement_nm1"):
