@@ -182,7 +182,7 @@ def write_report(study: Study, todo, out: Path) -> Path:
             continue
         errs = [m["errors"][k] for k in study.observables]
         rows.append(f"| {run} | {m['vertices']:,} | {m['dofs']:,} | {m['status']} | "
-                    + " | ".join("–" if e is None else f"{e:+.2%}" for e in errs)
+                    + " | ".join("–" if e is None else f"{100 * e:+.3g}%" for e in errs)
                     + f" | {m['wall']:.3g} | {m['per_step']:.4f} | "
                     + " | ".join(f"{m['phases'][p]:.4f}" for p in PHASES)
                     + f" | {'–' if m['memory'] is None else format(m['memory'], '.0f')} |")
@@ -198,7 +198,7 @@ def write_report(study: Study, todo, out: Path) -> Path:
              "reference; phases are seconds per step; peak memory is the sum over ranks.", "", *rows, ""]
     if front:
         lines += ["Pareto front (no other run is both faster and more accurate): "
-                  + ", ".join(f"`{labels[i]}` ({points[i][1]:.2%} in {points[i][0]:.3g} s)"
+                  + ", ".join(f"`{labels[i]}` ({100 * points[i][1]:.3g}% in {points[i][0]:.3g} s)"
                               for i in sorted(front, key=lambda i: points[i][0])), ""]
     if figure:
         lines += [f"![pareto]({figure})", ""]
