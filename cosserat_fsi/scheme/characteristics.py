@@ -261,21 +261,25 @@ class Characteristics:
         geometry (or that of ``locator``): (points (n_cells·nq, 3), their cells)."""
         locator = locator or self.locator
         ref = compat.quadrature_points(degree)
-        pts = locator.x0[:, None, :] + np.einsum("cij,kj->cki", locator.J, ref)
-        n_cells, nq = pts.shape[:2]
-        out = np.zeros((n_cells * nq, 3))
-        out[:, :2] = pts.reshape(-1, 2)
-        return out, np.repeat(np.arange(n_cells, dtype=np.int32), nq)
+        x0, J = locator.x0, locator.J
+        n_cells, nq = len(x0), len(ref)
+        out = np.zeros((n_cells, nq, 3))
+        for i in (0, 1):  # x_i = x0_i + J_i0 ξ + J_i1 η, written out (≈ 5× faster than an einsum)
+            out[:, :, i] = x0[:, i, None] + J[:, i, 0, None] * ref[:, 0] + J[:, i, 1, None] * ref[:, 1]
+        return out.reshape(-1, 3), np.repeat(np.arange(n_cells, dtype=np.int32), nq)
 
     def at_quadrature_nodes(self, f, degree: int) -> np.ndarray:
         """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference
         points is the same in every cell, so this is one small matrix product per cell."""
         ref = compat.quadrature_points(degree)
-        phi = p2_basis(ref[:, 0], ref[:, 1])  # (nq, 6)
+        phi_t = np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]).T)  # (6, nq)
         n_cells = len(self.locator.x0)
         bs = f.function_space.dofmap.index_map_bs
-        coeffs = f.x.array.reshape(-1, bs)[self.locator.dofs(f.function_space)[:n_cells]]  # (c, 6, bs)
-        return np.einsum("qk,ckb->cqb", phi, coeffs, optimize=True).reshape(-1, bs)
+        dofs = self.locator.dofs(f.function_space)[:n_cells]  # (c, 6)
+        values = f.x.array.reshape(-1, bs)
+        # per component: (c, 6) coefficients @ (6, nq) basis values
+        return np.stack([np.take(np.ascontiguousarray(values[:, b]), dofs) @ phi_t for b in range(bs)],
+                        axis=2).reshape(-1, bs)
 
     def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
         """Reorder values at local V nodes to the local nodes of S."""
