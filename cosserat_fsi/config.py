@@ -147,7 +147,12 @@ class Fluid(_Section):
 
 
 class Micropolar(_Section):
-    """Cosserat (micropolar) coefficients; all zero gives a Newtonian fluid."""
+    """Cosserat (micropolar) coefficients; all zero gives a Newtonian fluid.
+
+    ``nodal_characteristics``: interpolate ω^n∘X^n at the P2 nodes even when u's history is evaluated at
+    the quadrature points (``time.characteristics: quadrature``). A weakly damped ω (large micro-inertia,
+    e.g. I = 1e-2 m² with μ_r = 0.1) makes the quadrature-point evaluation unstable (docs/seed_reproduction.md);
+    the nodal interpolation is stable, at the price of more numerical diffusion of ω."""
 
     mu_r: NonNegFloat = 0.0
     lambda1: NonNegFloat = 0.0
@@ -155,6 +160,7 @@ class Micropolar(_Section):
     inertia: NonNegFloat = 0.0
     body_couple: float = 0.0
     wall_condition: Literal["zero", "half_curl"] = "zero"
+    nodal_characteristics: bool = False
 
 
 class Solid(_Section):

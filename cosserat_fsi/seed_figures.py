@@ -302,11 +302,13 @@ def _statements(tips: dict, runs: Path) -> list[str]:
                    "with quadrature-point evaluation are then not stable: max |ω| grows ×10 every ≈ 17 steps "
                    "from t ≈ 0.7 and the run stops at t = 1.78 (exit 3, a cell about to invert). BDF2 does not "
                    "help (it stops at t = 1.85, max |ω| 5·10⁵ by t = 1.25); with `time.characteristics: nodes` "
-                   "(history interpolated at the P2 nodes) the same run is stable to t = 2.5 with max |ω| 1.9 1/s. "
-                   "So the unstable part is the quadrature-point evaluation of a weakly damped transported field, "
-                   "the Lagrange–Galerkin instability of inexact quadrature (Morton, Priestley & Süli 1988) that "
-                   "a degree-8 rule keeps away for u: use nodal characteristics for such scenes. The run is kept "
-                   "as a documented limit.")
+                   "(history interpolated at the P2 nodes) the same run is stable to t = 2.5 with max |ω| 1.9 1/s, and "
+                   "so it is with `micropolar.nodal_characteristics: true` (ω's history at the nodes, u's still at "
+                   "the quadrature points; max |ω| 1.88 1/s at t = 2.5). So the unstable part is the "
+                   "quadrature-point evaluation of a weakly damped transported field, the Lagrange–Galerkin "
+                   "instability of inexact quadrature (Morton, Priestley & Süli 1988) that a degree-8 rule keeps "
+                   "away for u: set `micropolar.nodal_characteristics` for such scenes. The run is kept as a "
+                   "documented limit of the default.")
     for mp, ns_id, mu_r in ((m01, "seedfig-ns-mu1.1", 0.1), (m05, "seedfig-ns-mu1.5", 0.5)):
         ns = tips.get(ns_id) or {}
         if mp.get("drag") is None or ns.get("drag") is None or c.get("drag") is None:

@@ -123,8 +123,9 @@ class Stepper:
             S = sp.space("micro_rotation")
             self.omega_n = dolfinx.fem.Function(S, name="micro_rotation")
             self.omega_nm1 = dolfinx.fem.Function(S)
+            at_quadrature = self.quadrature_degree and not scene.micropolar.nodal_characteristics
             self.omega_hist = dolfinx.fem.Function(
-                compat.quadrature_space(mesh, self.quadrature_degree) if self.quadrature_degree else S)
+                compat.quadrature_space(mesh, self.quadrature_degree) if at_quadrature else S)
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.model.micro_rotation else None, comm)
         self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")  # (x^n − x^{n−1})/δt
         self.motion = None
@@ -409,15 +410,38 @@ class Stepper:
             self._alpha_of_A = alpha
 
     def _histories(self, alpha: float):
-        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet)."""
+        """Set α·h for u (and ω) from the characteristics (first order, or BDF2 feet): at the quadrature
+        points of the inertia term, or at the P2 nodes (``time.characteristics: nodes``; for ω alone with
+        ``micropolar.nodal_characteristics``)."""
         chars, micro = self.chars, self.model.micro_rotation
-        fns_n = [self.u_n] + ([self.omega_n] if micro else [])
-        fns_nm1 = [self.u_nm1] + ([self.omega_nm1] if micro else [])
-        if self.quadrature_degree:
-            x, cells = chars.quadrature_nodes(self.quadrature_degree)
+        degree = self.quadrature_degree
+        omega_apart = micro and degree and self.scene.micropolar.nodal_characteristics
+        with_omega = micro and not omega_apart
+        hist = self._history_values(alpha, degree, [self.u_n] + ([self.omega_n] if with_omega else []),
+                                    [self.u_nm1] + ([self.omega_nm1] if with_omega else []))
+        if degree:
+            self._set_quadrature(self.u_hist, hist[0])
+            if with_omega:
+                self._set_quadrature(self.omega_hist, hist[1])
+        else:
+            n = chars.n_nodes
+            self.u_hist.x.array[: n * 2] = hist[0].ravel()
+            self.u_hist.x.scatter_forward()
+        if omega_apart or (micro and not degree):
+            values = (self._history_values(alpha, None, [self.omega_n], [self.omega_nm1])[0] if omega_apart
+                      else hist[1])
+            self.omega_hist.x.array[:] = chars.to_S(values[:, 0])
+            self.omega_hist.x.scatter_forward()
+
+    def _history_values(self, alpha: float, degree, fns_n, fns_nm1) -> list:
+        """α·h of ``fns_n`` (and ``fns_nm1`` for BDF2) at the quadrature points of ``degree`` in every
+        cell, or at the local P2 nodes (``degree`` None)."""
+        chars = self.chars
+        if degree:
+            x, cells = chars.quadrature_nodes(degree)
 
             def at_x(f):
-                return chars.at_quadrature_nodes(f, self.quadrature_degree)
+                return chars.at_quadrature_nodes(f, degree)
         else:
             x, cells = chars.nodes(), None
 
@@ -440,7 +464,7 @@ class Stepper:
                 # Points outside such an earlier configuration (its boundary moved: a solid-only scene)
                 # are pulled back to the image of x in it (same cell, same barycentric coordinates).
                 loc_n, loc_nm1 = self._history_locators
-                x_n, x_nm1 = (self._earlier_position(x, loc, disp)
+                x_n, x_nm1 = (self._earlier_position(x, loc, disp, degree)
                               for loc, disp in ((loc_n, self.mesh_displacement_n),
                                                 (loc_nm1, self.mesh_displacement_nm1)))
                 (un_x,) = evaluate(loc_n, [self.u_n], x, x_n, self.comm, hint=cells)
@@ -449,17 +473,7 @@ class Stepper:
                 vals1 = evaluate(loc_n, fns_n, x - self.dt * u_star, x_n, self.comm, hint=cells)
                 vals2 = evaluate(loc_nm1, fns_nm1, x - 2.0 * self.dt * u_star, x_nm1, self.comm, hint=cells)
             hist = [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
-        if self.quadrature_degree:
-            self._set_quadrature(self.u_hist, hist[0])
-            if micro:
-                self._set_quadrature(self.omega_hist, hist[1])
-        else:
-            n = chars.n_nodes
-            self.u_hist.x.array[: n * 2] = hist[0].ravel()
-            self.u_hist.x.scatter_forward()
-            if micro:
-                self.omega_hist.x.array[:] = chars.to_S(hist[1][:, 0])
-                self.omega_hist.x.scatter_forward()
+        return hist
 
     def _to_solve_configuration(self, alpha: float):
         """BDF2 on a moving mesh: put the mesh at Ω* = X + (4D^n − D^{n−1})/3 (Ω^n for the first-order
@@ -471,11 +485,11 @@ class Stepper:
         m.place(E, self.t)
         self.chars.locator = PointLocator(self.mesh)
 
-    def _earlier_position(self, x, locator, displacement):
+    def _earlier_position(self, x, locator, displacement, degree):
         """Where the points x of the current mesh were in an earlier configuration of it (``locator``,
         reached with the P1 vertex ``displacement``): the same cell and barycentric coordinates."""
-        if self.quadrature_degree:
-            return self.chars.quadrature_nodes(self.quadrature_degree, locator)[0]
+        if degree:
+            return self.chars.quadrature_nodes(degree, locator)[0]
         shift = self._shift
         shift.interpolate(displacement)
         current = self._shift_current
