@@ -119,14 +119,18 @@ def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
                      4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
 
 
-def combine(locator: PointLocator, f, phi: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Σ_k φ_k c_k: values of the P2 field ``f`` from basis values ``phi`` (n, 6) in ``cells``."""
+def _coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarray]:
+    """The P2 coefficients of ``f`` in ``cells``, one (n, 6) array per component: a gather per component
+    (np.take on a contiguous copy) is ~4× faster than one (n, 6, bs) fancy-index gather."""
     bs = f.function_space.dofmap.index_map_bs
     idx = locator.dofs(f.function_space)[cells]  # (n, 6)
     values = f.x.array.reshape(-1, bs)
-    # one gather per component (np.take on a contiguous copy): ~4x faster than a (n, 6, bs) gather
-    return np.stack([(phi * np.take(np.ascontiguousarray(values[:, b]), idx)).sum(axis=1) for b in range(bs)],
-                    axis=1)
+    return [np.take(np.ascontiguousarray(values[:, b]), idx) for b in range(bs)]
+
+
+def combine(locator: PointLocator, f, phi: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Σ_k φ_k c_k: values of the P2 field ``f`` from basis values ``phi`` (n, 6) in ``cells``."""
+    return np.stack([(phi * c).sum(axis=1) for c in _coefficients(locator, f, cells)], axis=1)
 
 
 def is_p2(locator: PointLocator, f) -> bool:
@@ -273,13 +277,10 @@ class Characteristics:
         points is the same in every cell, so this is one small matrix product per cell."""
         ref = compat.quadrature_points(degree)
         phi_t = np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]).T)  # (6, nq)
-        n_cells = len(self.locator.x0)
-        bs = f.function_space.dofmap.index_map_bs
-        dofs = self.locator.dofs(f.function_space)[:n_cells]  # (c, 6)
-        values = f.x.array.reshape(-1, bs)
+        cells = np.arange(len(self.locator.x0))
         # per component: (c, 6) coefficients @ (6, nq) basis values
-        return np.stack([np.take(np.ascontiguousarray(values[:, b]), dofs) @ phi_t for b in range(bs)],
-                        axis=2).reshape(-1, bs)
+        return np.stack([c @ phi_t for c in _coefficients(self.locator, f, cells)], axis=2).reshape(
+            -1, f.function_space.dofmap.index_map_bs)
 
     def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
         """Reorder values at local V nodes to the local nodes of S."""

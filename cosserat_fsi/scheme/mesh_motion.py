@@ -56,10 +56,9 @@ class _MovingMesh:
     def place(self, displacement: np.ndarray, t: float):
         """Put the mesh at X0 + displacement (P1 dof array) after checking its cells (DivergenceError and
         the mesh untouched if one would invert or degenerate). ``self.displacement`` is not changed."""
-        new_displacement = displacement
         x = self.mesh.geometry.x
         old = x[:, :2].copy()
-        x[:, :2] = self.X0 + new_displacement.reshape(-1, 2)[self.node_dof]
+        x[:, :2] = self.X0 + displacement.reshape(-1, 2)[self.node_dof]
         ratio = self._areas() / self.ref_area
         worst = int(np.argmin(ratio)) if len(ratio) else -1
         bad = len(ratio) > 0 and ratio[worst] < 1e-3
@@ -82,7 +81,6 @@ class MeshMotion(_MovingMesh):
         super().__init__(mesh, comm)
         M, tdim = self.M, mesh.topology.dim
         self.solid_displacement = dolfinx.fem.Function(M)
-        self.solid_displacement_nm1 = dolfinx.fem.Function(M)  # for BDF2
         self._u_P1 = dolfinx.fem.Function(M)
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
@@ -113,14 +111,14 @@ class MeshMotion(_MovingMesh):
         self.b = compat.create_vector(self.L, M)
         self._new = dolfinx.fem.Function(M)
 
-    def move(self, velocity, dt: float, t: float, alpha: float = 1.0):
-        """Solid vertices += δt u^{n+1} (α = 1) or s^{n+1} = (4s^n − s^{n−1})/3 + (2δt/3) u^{n+1} (BDF2,
-        α = 3/2), as the displacement d; fluid vertices: harmonic extension. Returns the mesh velocity (P1)."""
+    def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base: np.ndarray | None = None):
+        """Solid vertices: s^{n+1} = s* + (δt/α) u^{n+1}, as the displacement d, with s* = s^n (first order)
+        or the given ``base`` (BDF2: the extrapolated displacement (4D^n − D^{n−1})/3, a P1 dof array);
+        fluid vertices: harmonic extension. Returns the mesh velocity (P1)."""
         self._u_P1.interpolate(velocity)
         entries = self._solid_entries
-        s, s_nm1 = self.solid_displacement.x.array, self.solid_displacement_nm1.x.array
-        s_star = s[entries] if alpha == 1.0 else (4.0 * s[entries] - s_nm1[entries]) / 3.0
-        s_nm1[:] = s
+        s = self.solid_displacement.x.array
+        s_star = s[entries] if base is None else base[entries]
         s[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
         self.solid_displacement.x.scatter_forward()
         self.A0.mult(compat.petsc_vec(self.solid_displacement), self.b)  # b = −A0 g, g = 0 off the solid
@@ -144,7 +142,7 @@ class PrescribedMotion(_MovingMesh):
         self._X0_dof[self.node_dof[:n]] = self.X0
         self.motion = motion
 
-    def move(self, velocity, dt: float, t: float, alpha: float = 1.0):
+    def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base=None):
         return self._apply(np.asarray(self.motion(self._X0_dof, t), dtype=float).ravel(), dt, t)
 
 

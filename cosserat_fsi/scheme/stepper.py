@@ -569,7 +569,8 @@ class Stepper:
                     self.mesh_displacement_n.x.array[:] = self.solve_displacement.x.array
                     self.mesh_displacement_prev.x.array[:] = self.motion.displacement.x.array
                     self._history_locators = (self.chars.locator, self._history_locators[0])
-                w_P1 = self.motion.move(self.u_n, self.dt, self.t, alpha)
+                base = self.solve_displacement.x.array if self.order == 2 else None
+                w_P1 = self.motion.move(self.u_n, self.dt, self.t, alpha, base)
                 self.mesh_velocity.interpolate(w_P1)
                 if self.order == 2:
                     self.chars.locator = PointLocator(self.mesh)
@@ -596,8 +597,6 @@ class Stepper:
             fns["mesh_displacement_prev"] = self.mesh_displacement_prev
             fns["mesh_displacement_n"] = self.mesh_displacement_n
             fns["mesh_displacement_nm1"] = self.mesh_displacement_nm1
-            if hasattr(self.motion, "solid_displacement_nm1"):
-                fns["solid_displacement_nm1"] = self.motion.solid_displacement_nm1
         if self.motion is not None:
             fns["mesh_displacement"] = self.motion.displacement
             fns["mesh_velocity_P1"] = self.motion.velocity
