@@ -5,6 +5,11 @@ solid displacement, zero on the outer boundary. The extension is solved on the *
 total displacement (Laplace is linear, so this equals the sum of the seed's incremental extensions with a
 fixed operator): its matrix is assembled and factorised once, and the mesh never drifts. The Laplacian is
 stiffened by 1/|cell| (Jasak–Tuković), so small cells near the body deform less.
+
+A mesh motion is pluggable (Simulation._motion chooses it): it offers the P1 vertex space ``M``, the
+reference coordinates ``X0`` and ``node_dof``, the total ``displacement`` and ``velocity`` (P1),
+``place(displacement, t)``, ``move(velocity, dt, t, alpha, base) -> mesh velocity (P1)`` and
+``state_functions()`` (what a checkpoint keeps).
 """
 
 from __future__ import annotations
