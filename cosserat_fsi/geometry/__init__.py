@@ -70,17 +70,14 @@ def describe(name, params=None):
 log = logging.getLogger("cosserat_fsi")
 
 
-def default_cache_dir():
-    """``<repo>/meshes`` in a writable source checkout, else ``~/.cache/cosserat-fsi/meshes``."""
-    repo = pathlib.Path(__file__).resolve().parents[2]
-    if (repo / "pyproject.toml").is_file():
-        try:
-            (repo / "meshes").mkdir(exist_ok=True)
-            if os.access(repo / "meshes", os.W_OK):
-                return repo / "meshes"
-        except OSError:
-            pass
-    return pathlib.Path.home() / ".cache" / "cosserat-fsi" / "meshes"
+def default_cache_dir() -> pathlib.Path:
+    """Where meshes are cached: ``$COSSERAT_FSI_MESH_CACHE`` if set (the Makefile and the tests set it to the
+    repository's ``meshes/``), else ``$XDG_CACHE_HOME/cosserat-fsi/meshes`` (default ``~/.cache/...``)."""
+    explicit = os.environ.get("COSSERAT_FSI_MESH_CACHE")
+    if explicit:
+        return pathlib.Path(explicit).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
+    return pathlib.Path(base).expanduser() / "cosserat-fsi" / "meshes"
 
 
 def _sha256(path: pathlib.Path) -> str:
