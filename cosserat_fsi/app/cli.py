@@ -114,7 +114,7 @@ def _cmd_mesh(args) -> int:
     scene = load_scene(args.config, args.set)
     from cosserat_fsi.geometry import build_msh
 
-    path = build_msh(scene.geometry.name, scene.geometry.level, scene.geometry.msh_params())
+    path = build_msh(scene.geometry)
     import gmsh
 
     gmsh.initialize()
