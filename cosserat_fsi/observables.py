@@ -192,6 +192,9 @@ def _momentum_residual(stepper, u, T, dx):
     rho, inv_dt, alpha = stepper.rho, stepper.inv_dt, stepper.alpha
 
     def residual(phi):
+        if getattr(stepper, "steady", False):  # steady solve (scheme/steady.py): the convective acceleration
+            return (rho * ufl.inner(ufl.grad(u) * u, phi) + ufl.inner(T, ufl.grad(phi))
+                    - ufl.inner(stepper.f, phi)) * dx
         inertia = rho * inv_dt * ufl.inner(alpha * u - stepper.u_hist, phi)
         if dx.subdomain_id() != "everywhere":  # restricted to the fluid cells
             dxi = stepper.dx_inertia(subdomain_data=stepper.cell_tags)(dx.subdomain_id())
