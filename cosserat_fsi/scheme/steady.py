@@ -1,8 +1,8 @@
 """Steady scenes solved as steady problems (``time.scheme: steady``): Newton on the equations without ∂/∂t.
 
-Navier–Stokes and micropolar scenes: the residual is the time-stepping forms of physics/fluid.py with the
-inertia coefficient set to zero, plus the convective acceleration ρ (u·∇)u in the momentum equation and
-ρI (u·∇)ω in the micro-rotation equation (seed eqs. 31–32 with ∂/∂t = 0). Newton starts from the rest
+Navier–Stokes and micropolar scenes: the residual of seed eqs. (31)–(32) with the convective acceleration
+ρ (u·∇)u in the momentum equation and ρI (u·∇)ω in the micro-rotation equation (∂/∂t = 0), given to the
+scene's :class:`~.problem.Problem` residual as its material accelerations. Newton starts from the rest
 state with the boundary data, so its first iterate is the Stokes solution; when it does not converge, a
 continuation in the convection (the Reynolds number) follows (``time.newton_continuation``).
 
@@ -19,14 +19,10 @@ import logging
 
 from .. import compat
 from ..errors import DivergenceError
-from ..physics import fluid
 from .newton import Newton, NewtonReport
-from .stepper import Stepper, TAGS
+from .stepper import Stepper
 
-import dolfinx
-import numpy as np
 import ufl
-from petsc4py import PETSc
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -80,31 +76,21 @@ class SteadyMixin:
 class SteadyFluid(SteadyMixin, Stepper):
     """Steady Navier–Stokes (and micropolar) flow by Newton on the mixed u (× ω) × p space."""
 
+    def acceleration(self, u):
+        """The steady material acceleration (u·∇)u = grad(u) u, times the continuation parameter."""
+        return self.convection * ufl.grad(u) * u
+
     def _forms(self):
-        sp, w = self.space, self.w
-        parts, tests = ufl.split(w), ufl.TestFunctions(sp.W)
-        i_u, i_p = sp.index("velocity"), sp.index("pressure")
-        u, p, v, q = parts[i_u], parts[i_p], tests[i_u], tests[i_p]
-        dx = ufl.dx(domain=self.mesh)
-        zero, zero_u = self._const(0.0), dolfinx.fem.Constant(self.mesh, np.zeros(2, dtype=PETSc.ScalarType))
+        """F(w; test) = the problem's residual with the accelerations (u·∇)u and (u·∇)ω (seed eqs. 31–32)."""
+        pr, w = self.problem, self.w
         self.convection = self._const(1.0)  # continuation parameter (the Reynolds number's fraction)
-        a, L = fluid.navier_stokes(u, p, v, q, rho=self.rho, mu=self.mu, inv_dt=zero, alpha=zero, history=zero_u,
-                                   body_force=self.f, penalty=self.penalty, dx=dx, viscous_form=self.viscous_form)
-        F = a - L + self.convection * self.rho * ufl.inner(ufl.grad(u) * u, v) * dx
-        if self.model.micro_rotation:
-            i_w = sp.index("micro_rotation")
-            omega, tau = parts[i_w], tests[i_w]
-            a_m, L_m = fluid.micropolar(u, omega, v, tau, rho=self.rho, mu_r=self.mu_r, lambda1=self.lambda1,
-                                        inertia=self.inertia, inv_dt=zero, alpha=zero, history=zero,
-                                        body_couple=self.g, dx=dx, viscous_form=self.viscous_form)
-            F = F + a_m - L_m + self.convection * self.rho * self.inertia * ufl.dot(u, ufl.grad(omega)) * tau * dx
-            if self.scene.micropolar.wall_condition == "half_curl":
-                ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
-                walls = tuple(TAGS[name] for name in self._half_curl_walls())
-                F = F + fluid.half_curl_wall(u, omega, tau, lambda1=self.lambda1, ds=ds(walls), mesh=self.mesh)
-        self.residual = F
+        self.dx_inertia = ufl.dx(domain=self.mesh)  # the observables' residual forces use it too
+        u, _, omega = pr.split(w)
+        micro = self.convection * ufl.dot(u, ufl.grad(omega)) if omega is not None else None
+        self.residual = pr.residual(w, ufl.TestFunctions(pr.space.W), acceleration=self.acceleration(u),
+                                    micro_acceleration=micro)
         self.newton = None
-        self.a_form, self.L_form = None, compat.form(F)
+        self.a_form, self.L_form = None, compat.form(self.residual)
 
     def _make_solver(self):
         return None
@@ -112,8 +98,9 @@ class SteadyFluid(SteadyMixin, Stepper):
     def advance(self, before_move=None):
         """Solve the steady equations (Newton from the initial state, continuation if needed)."""
         t = steady_time(self.scene)
-        for update in self._updates + self._source_updates:
+        for update in self._updates:
             update(t)
+        self.problem.update_sources(t)
         sp, w = self.space, self.w
         if self.newton is None:
             with self.timers("setup_newton"):

@@ -50,7 +50,12 @@ def displacement_space(mesh) -> MixedSpace:
 class SteadySolid(SteadyMixin, Stepper):
     """Static solid, or steady FSI, by Newton on the reference mesh (continuation in the load if needed)."""
 
+    def acceleration(self, u):
+        """The steady material acceleration (u·∇)u (observables: the residual forces on the moved mesh)."""
+        return ufl.grad(u) * u
+
     def _forms(self):
+        self.dx_inertia = ufl.dx(domain=self.mesh)
         self.space = sp = displacement_space(self.mesh)
         self.w = dolfinx.fem.Function(sp.W, name="state")
         # the state the run loop reads, on the collapsed spaces of this mixed space
@@ -88,8 +93,9 @@ class SteadySolid(SteadyMixin, Stepper):
     def advance(self, before_move=None):
         """Solve the steady problem, then move the mesh to the deformed configuration and observe."""
         t = steady_time(self.scene)
-        for update in self._updates + self._source_updates:
+        for update in self._updates:
             update(t)
+        self.problem.update_sources(t)
         sp, w = self.space, self.w
         if self.newton is None:
             with self.timers("setup_newton"):
