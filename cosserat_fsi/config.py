@@ -288,7 +288,7 @@ class Scene(_Section):
         for key in ("dt", "t_end"):
             if getattr(time, key) is None:
                 raise ValueError(f"time.{key}: field required (for scheme {time.scheme})")
-        if time.t_end < time.dt:
+        if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if geo.flag is not None and geo.name != "turek_hron":
             raise ValueError(f"geometry.flag: only for geometry turek_hron (got {geo.name!r})")

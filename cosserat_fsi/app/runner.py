@@ -18,7 +18,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
-from ..analysis import periodic_analysis, relative_error
+from ..analysis import relative_error
 from ..config import dump_resolved
 from ..errors import DivergenceError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
@@ -28,6 +28,7 @@ from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..scheme.steady import make_stepper
+from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -210,28 +211,17 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(stepper.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
-            "periodic": _periodic(series),
         }
+        # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
+        summary["signals"], summary["periodic"] = classify_signals(series)
         if getattr(stepper, "report", None) is not None:  # steady solve: Newton's iterations and residuals
             summary["newton"] = stepper.report.as_dict()
-            summary["periodic"] = "steady"
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")
     return comm.bcast(summary, root=0)
-
-
-def _periodic(series: dict) -> dict:
-    """Periodic analysis of every observable that oscillates (over its last full periods)."""
-    out = {}
-    for key, values in series.items():
-        if key != "t" and len(values) > 10:
-            analysis = periodic_analysis(series["t"], values)
-            if analysis.get("method") not in (None, "constant"):
-                out[key] = analysis
-    return out
 
 
 def compare_with_reference(scene, summary: dict) -> dict:

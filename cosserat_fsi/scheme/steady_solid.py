@@ -71,7 +71,7 @@ class SteadySolid(SteadyMixin, Stepper):
         self.has_fluid_cells = bool(self.comm.allreduce(int(np.any(self.cell_tags.values == FLUID)), op=MPI.SUM))
         if self.has_fluid_cells:
             F = F + lagrangian.ale_navier_stokes(u, p, d, phi, q, rho=self.rho, mu=self.mu, body_force=self.f,
-                                                 penalty=self.penalty, dx_fluid=dx(FLUID), convection=self.load)
+                                                 penalty=self.problem.penalty, dx_fluid=dx(FLUID), convection=self.load)
         self.residual = F
         self.newton = None
         self.a_form, self.L_form = None, compat.form(F)
