@@ -135,7 +135,7 @@ def _cmd_mesh(args) -> int:
     scene = load_scene(args.config, args.set)
     from cosserat_fsi.geometry import build_msh
 
-    path = build_msh(scene.geometry.name, scene.geometry.level, scene.geometry.msh_params())
+    path = build_msh(scene.geometry)
     import gmsh
 
     gmsh.initialize()
@@ -242,7 +242,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.set_defaults(func=_cmd_plot)
     study = sub.add_parser("study", help="run a ladder of runs (mesh × δt × options) and report error, time, memory")
     study.add_argument("study", help="study YAML file (see studies/)")
-    study.add_argument("--out", help="folder for the report, figures and runs (default: docs/)")
+    study.add_argument("--out", help="folder for the report, figures and runs (default: the current directory)")
     study.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1)")
     study.add_argument("--report-only", action="store_true", help="only rewrite the report from finished runs")
     study.set_defaults(func=_cmd_study)
