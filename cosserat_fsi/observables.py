@@ -36,7 +36,7 @@ class Observables:
         mesh = sim.mesh
         ft = sim.facet_tags
         problem = sim.problem
-        u, p, omega = problem.split(sim.stepper.solution)
+        u, p, omega = sim.split_solution()
         T = cauchy_stress(u, p, problem.mu, problem.mu_r, omega)
         n = ufl.FacetNormal(mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft)
@@ -166,7 +166,7 @@ def _force_forms(sim, u, T, n, ds, body_tags):
 
 def _body_test_functions(sim, body_tags):
     """φ_x, φ_y: P2 fields equal to e_x, e_y on the body's boundary nodes and 0 at all other nodes."""
-    V = sim.problem.space.space("velocity")
+    V = sim.velocity.function_space
     fdim = sim.mesh.topology.dim - 1
     facets = sim.problem.facets(*(name for name, tag in FACET_TAGS.items() if tag in body_tags))
     phis = []

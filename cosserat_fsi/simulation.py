@@ -20,6 +20,7 @@ from .scheme.linear_solver import LinearSolver
 from .scheme.mesh_motion import MeshMotion, PrescribedMotion
 from .scheme.problem import Model, Problem
 from .scheme.state import State
+from .scheme.steady import steady_stepper
 from .scheme.stepper import SCHEMES, Stepper
 from .timers import Timers
 
@@ -48,14 +49,20 @@ class Simulation:
         self.timers = Timers()
         self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact)
         self.motion = self._motion(prescribed_motion)
-        order = SCHEMES[scene.time.scheme]
-        self.state = State(self.problem, order, self.motion)
+        self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion)
         self.state.set_initial(self.problem, exact)
+        self.stepper = self._stepper()
+
+    def _stepper(self):
+        """The scheme: characteristics (first order or BDF2), or a steady solver."""
+        scene, comm = self.scene, self.comm
+        boundary = BoundaryConditions(self.problem, comm, self.exact)
+        if scene.time.scheme == "steady":
+            return steady_stepper(self.problem, self.state, boundary, self.motion, self.timers, comm)
         histories = Histories(scene, self.problem, float(scene.time.dt), comm, moving=self.motion is not None)
         solver = LinearSolver(scene.solver, comm,
                               reuse_factorization=self.motion is not None and scene.solver.reuse_factorization)
-        self.stepper = Stepper(self.problem, self.state, BoundaryConditions(self.problem, comm, exact), histories,
-                               solver, self.motion, self.timers, comm)
+        return Stepper(self.problem, self.state, boundary, histories, solver, self.motion, self.timers, comm)
 
     def _motion(self, prescribed_motion):
         """The mesh motion (pluggable: harmonic extension of the solid's displacement today)."""
@@ -80,8 +87,20 @@ class Simulation:
                 callback(self)
 
     def steps_to(self, t_end: float) -> int:
-        """The number of steps of the run to ``t_end``."""
+        """The number of steps of the run to ``t_end`` (a steady solve is one step)."""
+        if self.scene.time.scheme == "steady":
+            return 1
         return int(round(t_end / self.scene.time.dt))
+
+    def check(self) -> None:
+        """DivergenceError if the run failed without raising at once (a steady Newton that did not
+        converge keeps its last iterate for the outputs)."""
+        self.stepper.check()
+
+    @property
+    def report(self):
+        """The Newton report of a steady solve (None when time stepping)."""
+        return self.stepper.report
 
     # ------------------------------------------------------------------------- checkpoints
     def checkpoint(self) -> dict:
@@ -108,7 +127,7 @@ class Simulation:
 
     @property
     def order(self) -> int:
-        return self.stepper.order
+        return self.state.order
 
     @property
     def velocity(self):
@@ -129,7 +148,7 @@ class Simulation:
     @property
     def locator(self):
         """The point locator of the current mesh (characteristics.probe)."""
-        return self.stepper.histories.chars.locator
+        return self.stepper.locator
 
     def acceleration(self, u):
         """The scheme's material acceleration of ``u`` in the last step (residual forces)."""
@@ -137,7 +156,11 @@ class Simulation:
 
     @property
     def dx_inertia(self):
-        return self.stepper.histories.dx_inertia
+        return self.stepper.dx_inertia
+
+    def split_solution(self) -> tuple:
+        """(u, p, ω or None) of the last solution (the mixed Function), as UFL expressions."""
+        return self.stepper.split_solution()
 
     def num_dofs(self) -> dict:
         return self.problem.num_dofs()

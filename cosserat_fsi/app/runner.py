@@ -18,7 +18,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
-from ..analysis import periodic_analysis, relative_error
+from ..analysis import relative_error
 from ..config import dump_resolved
 from ..errors import DivergenceError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
@@ -28,6 +28,7 @@ from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
+from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -72,7 +73,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     log.info("dofs: %s", sim.num_dofs())
     setup_time = time.perf_counter() - wall0
 
-    n_steps = sim.steps_to(scene.time.t_end)
+    steady = scene.time.scheme == "steady"
+    n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
     series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
                               keep_rows=meta["rows"] if restart else None)
@@ -98,7 +100,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
     def after_step(sim):
         k = sim.step_count
-        if fields is not None and k % every == 0:
+        if fields is not None and (steady or k % every == 0):
             with sim.timers("output"):
                 _write_fields(fields, sim)
         if bar is not None:
@@ -114,9 +116,10 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
     try:
         with _StopSignals() as stop:
-            if fields is not None and not restart:
+            if fields is not None and not restart and not steady:
                 _write_fields(fields, sim)
             sim.run(n_steps, observers=[observe], after_step=[after_step])
+            sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
     except DivergenceError as exc:
         status, message = "diverged", str(exc)
         raise
@@ -207,25 +210,17 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(sim.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
-            "periodic": _periodic(series),
         }
+        # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
+        summary["signals"], summary["periodic"] = classify_signals(series)
+        if sim.report is not None:  # steady solve: Newton's iterations and residuals
+            summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")
     return comm.bcast(summary, root=0)
-
-
-def _periodic(series: dict) -> dict:
-    """Periodic analysis of every observable that oscillates (over its last full periods)."""
-    out = {}
-    for key, values in series.items():
-        if key != "t" and len(values) > 10:
-            analysis = periodic_analysis(series["t"], values)
-            if analysis.get("method") not in (None, "constant"):
-                out[key] = analysis
-    return out
 
 
 def compare_with_reference(scene, summary: dict) -> dict:

@@ -20,10 +20,14 @@ import dolfinx
 
 
 class BoundaryConditions:
-    """The list ``bcs`` of dolfinx Dirichlet conditions on the mixed space and :meth:`update` (t)."""
+    """The list ``bcs`` of dolfinx Dirichlet conditions on the mixed space and :meth:`update` (t).
 
-    def __init__(self, problem: Problem, comm=MPI.COMM_WORLD, exact=None):
+    ``space``: another mixed space with the same field names (default: the problem's).
+    """
+
+    def __init__(self, problem: Problem, comm=MPI.COMM_WORLD, exact=None, space=None):
         self.problem, self.comm = problem, comm
+        self.space = space if space is not None else problem.space
         self.bcs: list = []
         self._updates: list[Callable[[float], None]] = []
         weak = problem.half_curl_walls()
@@ -78,7 +82,7 @@ class BoundaryConditions:
     def _add(self, space_name, facet_names, values=None, scale=None, exact=None, kick=None):
         """One condition on the sub-space ``space_name``: fixed ``values`` (× ``scale(t)``, plus
         ``kick = (values2, scale2)`` × scale2(t)), the ``exact(x, t)`` data, or zero."""
-        sp = self.problem.space
+        sp = self.space
         Vs = sp.space(space_name)
         g = dolfinx.fem.Function(Vs)
         if values is not None:

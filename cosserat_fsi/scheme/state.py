@@ -85,6 +85,13 @@ class State:
             self.micro_rotation_prev.x.array[:] = self.micro_rotation.x.array
             self.micro_rotation.x.array[:] = x[space.dofs("micro_rotation")]
 
+    def from_mixed(self, w, space) -> None:
+        """Set u, p (and ω) from the mixed Function ``w`` of ``space`` (no new time level)."""
+        self.velocity.x.array[:] = w.x.array[space.dofs("velocity")]
+        self.pressure.x.array[:] = w.x.array[space.dofs("pressure")]
+        if self.micro_rotation is not None:
+            self.micro_rotation.x.array[:] = w.x.array[space.dofs("micro_rotation")]
+
     def to_mixed(self, w, space) -> None:
         """Write u, p (and ω) into the mixed Function ``w`` of ``space``."""
         w.x.array[space.dofs("velocity")] = self.velocity.x.array

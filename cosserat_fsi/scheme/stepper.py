@@ -27,11 +27,18 @@ import dolfinx.fem.petsc as fem_petsc
 import ufl
 from petsc4py import PETSc
 
-SCHEMES = {"characteristics1": 1, "characteristics2": 2}
+SCHEMES = {"characteristics1": 1, "characteristics2": 2, "steady": 1}  # steady: scheme/steady.py
 
 
 class Stepper:
-    """Advances a :class:`State` by one step of the scheme ``time.scheme`` (``order`` 1 or 2)."""
+    """Advances a :class:`State` by one step of the scheme ``time.scheme`` (``order`` 1 or 2).
+
+    The Simulation's stepper interface (shared with scheme/steady.py): ``advance(observe)``, ``solution``
+    and ``space`` (the mixed solution), ``split_solution()``, ``acceleration(u)``, ``dx_inertia``,
+    ``locator``, ``restored()``, ``check()``, ``report``.
+    """
+
+    report = None  # a Newton report (steady solvers)
 
     def __init__(self, problem: Problem, state: State, boundary: BoundaryConditions, histories: Histories,
                  solver: LinearSolver, motion=None, timers: Timers | None = None, comm=MPI.COMM_WORLD):
@@ -59,6 +66,26 @@ class Stepper:
     def acceleration(self, u):
         """The material acceleration of u (the step's, with u the solution: residual forces)."""
         return Histories.acceleration(u, self.histories.velocity, self.alpha, self.inv_dt)
+
+    @property
+    def space(self):
+        return self.problem.space
+
+    def split_solution(self) -> tuple:
+        """(u, p, ω or None) of the solution, as UFL expressions."""
+        return self.problem.split(self.solution)
+
+    @property
+    def dx_inertia(self):
+        return self.histories.dx_inertia
+
+    @property
+    def locator(self):
+        """The point locator of the current mesh."""
+        return self.histories.chars.locator
+
+    def check(self) -> None:
+        """Nothing to report after the run: a time step that fails raises at once."""
 
     def _forms(self):
         pr, h = self.problem, self.histories

@@ -1,0 +1,138 @@
+"""Steady scenes solved as steady problems (``time.scheme: steady``): Newton on the equations without ∂/∂t.
+
+Navier–Stokes and micropolar scenes: the residual of seed eqs. (31)–(32) with the convective acceleration
+ρ (u·∇)u in the momentum equation and ρI (u·∇)ω in the micro-rotation equation (∂/∂t = 0), given to the
+scene's :class:`~.problem.Problem` residual as its material accelerations. Newton starts from the rest
+state with the boundary data, so its first iterate is the Stokes solution; when it does not converge, a
+continuation in the convection (the Reynolds number) follows (``time.newton_continuation``).
+
+Scenes with a solid (CSM, FSI): :mod:`.steady_solid` (Lagrangian statics, monolithic ALE for FSI).
+
+A steady solve is one "step" of the run loop: :meth:`SteadyFluid.advance` solves, fills u^n, ω^n, p^n
+(so observables, outputs and checkpoints work unchanged) and calls ``before_move``. A Newton that does
+not converge keeps the last iterate as the state, and the runner writes it and exits with code 3.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from .. import compat
+from ..errors import DivergenceError
+from .characteristics import PointLocator
+from .newton import Newton, NewtonReport
+
+import dolfinx
+import ufl
+from petsc4py import PETSc
+
+log = logging.getLogger("cosserat_fsi")
+
+
+def steady_stepper(problem, state, boundary, motion, timers, comm):
+    """The steady solver of a scene's kind (Simulation's stepper for ``time.scheme: steady``)."""
+    if problem.model.solid:
+        from .steady_solid import SteadySolid
+
+        return SteadySolid(problem, state, boundary, motion, timers, comm)
+    return SteadyFluid(problem, state, boundary, motion, timers, comm)
+
+
+def steady_time(scene) -> float:
+    """The time at which the boundary data and sources are evaluated: after every ramp."""
+    ramps = [scene.time.t_end]
+    if scene.inflow is not None:
+        ramps.append(scene.inflow.ramp_time)
+    if scene.solid is not None:
+        ramps.append(scene.solid.gravity_ramp_time)
+    return max(ramps)
+
+
+class SteadyStepper:
+    """The run-loop face of a steady solver (the Simulation's stepper): one step, a Newton report, failure
+    recorded for the runner. Subclasses build ``space``, ``solution``, ``residual`` and ``_solve``."""
+
+    failure: str | None = None
+    report: NewtonReport | None = None
+
+    def __init__(self, problem, state, boundary, motion, timers, comm):
+        self.problem, self.state, self.boundary, self.motion = problem, state, boundary, motion
+        self.timers, self.comm = timers, comm
+        self.scene, self.mesh = problem.scene, problem.mesh
+        self.dx_inertia = ufl.dx(domain=self.mesh)  # the observables' residual forces use it too
+        self.locator = PointLocator(self.mesh)
+        self.newton = None
+
+    def constant(self, value):
+        return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
+
+    def split_solution(self) -> tuple:
+        """(u, p, ω or None) of the solution, as UFL expressions."""
+        parts = ufl.split(self.solution)
+        sp = self.space
+        omega = parts[sp.index("micro_rotation")] if "micro_rotation" in sp.names else None
+        return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
+
+    def _newton(self):
+        if self.newton is None:
+            with self.timers("setup_newton"):
+                tm = self.scene.time
+                self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
+                                     compiled=self.compiled, max_iterations=tm.newton_max_iterations,
+                                     rtol=tm.newton_rtol, name="newton")
+        return self.newton
+
+    def advance(self, observe=None) -> None:
+        """Solve the steady equations at :func:`steady_time` and call ``observe()``."""
+        t = steady_time(self.scene)
+        self.boundary.update(t)
+        self.problem.update_sources(t)
+        report = self._solve(t)
+        self.report = report
+        self.state.t = t
+        self.state.step_count += 1
+        if observe is not None:
+            observe()
+        if not report.converged:
+            last = report.history[-1] if report.history else {}
+            self.failure = (f"Newton did not converge ({report.message}; last |F| = "
+                            f"{last.get('residual', float('nan')):.3e}, relative {last.get('relative', float('nan')):.2e}); "
+                            f"the last iterate and the residual history are written")
+
+    def check(self) -> None:
+        """Raise DivergenceError (exit 3) if the solve failed; called by the runner after the outputs."""
+        if self.failure:
+            raise DivergenceError(self.failure)
+
+    def restored(self) -> None:
+        """Nothing to rebuild: a steady solve starts from the state."""
+
+
+class SteadyFluid(SteadyStepper):
+    """Steady Navier–Stokes (and micropolar) flow by Newton on the mixed u (× ω) × p space."""
+
+    def __init__(self, problem, state, boundary, motion, timers, comm):
+        super().__init__(problem, state, boundary, motion, timers, comm)
+        self.space = problem.space
+        self.solution = dolfinx.fem.Function(self.space.W, name="state")
+        self.convection = self.constant(1.0)  # continuation parameter (the Reynolds number's fraction)
+        u, _, omega = problem.split(self.solution)
+        micro = self.convection * ufl.dot(u, ufl.grad(omega)) if omega is not None else None
+        self.residual = problem.residual(self.solution, ufl.TestFunctions(self.space.W),
+                                         acceleration=self.acceleration(u), micro_acceleration=micro)
+        self.compiled = compat.form(self.residual)
+
+    def acceleration(self, u):
+        """The steady material acceleration (u·∇)u = grad(u) u, times the continuation parameter."""
+        return self.convection * ufl.grad(u) * u
+
+    def _solve(self, t) -> NewtonReport:
+        """Newton from the state (continuation if needed); the state takes the result."""
+        newton = self._newton()
+        self.state.to_mixed(self.solution, self.space)
+        newton.apply_bcs()
+        initial = self.solution.x.array.copy()
+        with self.timers("newton"):
+            report = newton.continuation(self.convection, self.scene.time.newton_continuation, initial)
+        self.state.from_mixed(self.solution, self.space)
+        return report
