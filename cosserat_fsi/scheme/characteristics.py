@@ -11,6 +11,10 @@ fields are evaluated there with a parallel point location:
    so they take the value at the boundary crossing ("points that leave the domain take the boundary value").
 
 w is the mesh velocity (ALE): with w = 0 this is the fixed-mesh scheme.
+
+The barycentric tests and the P2 evaluation run in compiled kernels (``_kernels``, numba) when numba is
+available (``COMPILED``; ``COSSERAT_FSI_NO_NUMBA=1`` turns them off); the numpy functions here are the
+reference they reproduce operation by operation, and the fallback.
 """
 
 from __future__ import annotations
@@ -19,7 +23,9 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
+from . import _kernels
 
+COMPILED = _kernels.ENABLED  # use the numba kernels (module flag: tests compare both paths)
 _TOL = 1e-10  # barycentric tolerance, relative to the reference triangle
 
 
@@ -55,18 +61,26 @@ class PointLocator:
         self.x0, self.J = x0, J
         self.Jinv = np.linalg.inv(J)
         self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, 4))
+        self.x0 = np.ascontiguousarray(self.x0)
 
     def dofs(self, V) -> np.ndarray:
         """Cell dof table of a space (cached per space)."""
         key = id(V)
         if key not in self._dofs:
-            self._dofs[key] = (V, compat.cell_dofs(V))
+            self._dofs[key] = (V, np.ascontiguousarray(compat.cell_dofs(V), dtype=np.int32))
         return self._dofs[key][1]
 
-    def _inside(self, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-        """Barycentric test: is each point in the given local cell?"""
+    def _inside(self, points: np.ndarray, cells: np.ndarray, owned_only: bool = False) -> np.ndarray:
+        """Barycentric test: is each point in the given local cell (and is the cell owned)?"""
+        if COMPILED:
+            limit = self.num_owned if owned_only else np.iinfo(np.int32).max
+            return _kernels.inside(np.ascontiguousarray(points), np.ascontiguousarray(cells, dtype=np.int32),
+                                   self.x0, self.Jinv_flat, _TOL, limit)
         l1, l2 = barycentric(self, points, cells)
-        return np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
+        hit = np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
+        if owned_only:
+            hit &= cells < self.num_owned
+        return hit
 
     def locate(self, points: np.ndarray, owned_only: bool = False, hint=None) -> np.ndarray:
         """Local cell index per point (−1 if none). ``points`` has shape (n, 3).
@@ -78,14 +92,16 @@ class PointLocator:
         if len(points) == 0:
             return cells
         if hint is not None:
-            hit = self._inside(points, hint)
-            if owned_only:
-                hit &= hint < self.num_owned
+            hit = self._inside(points, hint, owned_only)
             cells[hit] = hint[hit]
             rest = np.flatnonzero(~hit)
             cells[rest] = self.locate(points[rest], owned_only)
             return cells
         offsets, candidates = compat.collision_candidates(self.tree, points)
+        if COMPILED:
+            limit = self.num_owned if owned_only else np.iinfo(np.int32).max
+            return _kernels.first_inside(np.ascontiguousarray(points), offsets, candidates, self.x0,
+                                         self.Jinv_flat, _TOL, limit)
         counts = np.diff(offsets)
         point_of = np.repeat(np.arange(len(points)), counts)
         if owned_only:
@@ -137,19 +153,30 @@ def is_p2(locator: PointLocator, f) -> bool:
     return locator.dofs(f.function_space).shape[1] == 6
 
 
+def _compiled_p2(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``combine(p2_basis(barycentric(...)))`` in one compiled pass (same operations, same order)."""
+    return _kernels.p2_values(np.ascontiguousarray(points), np.ascontiguousarray(cells, dtype=np.int32),
+                              locator.x0, locator.Jinv_flat, locator.dofs(f.function_space), f.x.array,
+                              f.function_space.dofmap.index_map_bs)
+
+
 def eval_at(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Values of ``f`` at points in known local cells, shape (n, value_size).
 
     P2 Lagrange fields on affine triangles (every field the characteristics transport) are evaluated
-    here, vectorised (``p2_basis``); anything else goes to dolfinx's Function.eval.
+    here, vectorised (``p2_basis``) or compiled; anything else goes to dolfinx's Function.eval.
     """
     if len(points) == 0 or not is_p2(locator, f):
         return f.eval(points, cells).reshape(len(points), -1)
+    if COMPILED:
+        return _compiled_p2(locator, f, points, cells)
     return combine(locator, f, p2_basis(*barycentric(locator, points, cells)), cells)
 
 
 def eval_many(locator: PointLocator, functions, points: np.ndarray, cells: np.ndarray) -> list[np.ndarray]:
     """``eval_at`` for several fields at the same points: the basis is computed once."""
+    if COMPILED:
+        return [eval_at(locator, f, points, cells) for f in functions]
     phi = p2_basis(*barycentric(locator, points, cells)) if len(points) else None
     return [combine(locator, f, phi, cells) if phi is not None and is_p2(locator, f)
             else eval_at(locator, f, points, cells) for f in functions]
