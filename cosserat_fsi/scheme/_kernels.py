@@ -61,28 +61,46 @@ def first_inside(points, offsets, candidates, x0, Jinv, tol, cell_limit):
 
 
 @_jit
-def inside(points, cells, x0, Jinv, tol, cell_limit):
-    """Is each point in the given cell (barycentric test), and the cell below ``cell_limit``?"""
+def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
+    """Per point, a cell containing it found by walking from ``start`` (the hint cell) towards it:
+    test the barycentric coordinates (min(λ0, λ1, λ2) ≥ −tol: found), else cross the edge opposite the
+    most negative λ_i into ``neighbours[c, i]``. −1 when the walk reaches a boundary of the local mesh
+    (domain or ghost layer), does not arrive within ``max_steps`` or ends in a cell at or above
+    ``cell_limit``: the caller then asks the bounding-box tree. The first test (in the hint cell) is
+    the numpy path's hint test."""
     n = points.shape[0]
-    hit = np.zeros(n, dtype=np.bool_)
+    cells = np.full(n, -1, dtype=np.int32)
     for i in range(n):
-        c = cells[i]
-        dx, dy = points[i, 0] - x0[c, 0], points[i, 1] - x0[c, 1]
-        l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
-        l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
-        hit[i] = min(min(l1, l2), 1.0 - l1 - l2) >= -tol and c < cell_limit
-    return hit
+        c = start[i]
+        px, py = points[i, 0], points[i, 1]
+        for _ in range(max_steps):
+            dx, dy = px - x0[c, 0], py - x0[c, 1]
+            l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+            l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+            l0 = 1.0 - l1 - l2
+            if min(min(l1, l2), l0) >= -tol:
+                if c < cell_limit:
+                    cells[i] = c
+                break
+            k = 0 if l0 <= l1 and l0 <= l2 else (1 if l1 <= l2 else 2)
+            c = neighbours[c, k]
+            if c < 0:
+                break
+    return cells
 
 
 @_jit
 def p2_values(points, cells, x0, Jinv, dofs, values, bs):
     """Values (n, bs) of the P2 field with local coefficients ``values`` (flat, blocked by ``bs``) at
-    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``characteristics.p2_basis``, summed in k order."""
+    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``characteristics.p2_basis``, summed in k order.
+    Zeros where the cell is −1."""
     n = points.shape[0]
-    out = np.empty((n, bs))
+    out = np.zeros((n, bs))
     phi = np.empty(6)
     for i in range(n):
         c = cells[i]
+        if c < 0:
+            continue
         dx, dy = points[i, 0] - x0[c, 0], points[i, 1] - x0[c, 1]
         l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
         l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
@@ -110,5 +128,5 @@ def warm_up() -> None:
     cells = np.zeros(1, dtype=np.int32)
     first_inside(pts, np.array([0, 1], dtype=np.int64), cells, x0, Jinv, 1e-10, 1)
     first_inside(pts, np.array([0, 1], dtype=np.int32), cells, x0, Jinv, 1e-10, 1)
-    inside(pts, cells, x0, Jinv, 1e-10, 1)
+    walk(pts, cells, x0, Jinv, np.full((1, 3), -1, dtype=np.int32), 1e-10, 1, 32)
     p2_values(pts, cells, x0, Jinv, np.zeros((1, 6), dtype=np.int32), np.zeros(6), 1)
