@@ -7,7 +7,8 @@ from mpi4py import MPI
 from cosserat_fsi import compat
 from cosserat_fsi.geometry import build_msh
 from cosserat_fsi.scheme import _kernels, characteristics
-from cosserat_fsi.scheme.characteristics import Characteristics, PointLocator, eval_at, evaluate, probe
+from cosserat_fsi.scheme.characteristics import (Characteristics, PointLocator, eval_at, evaluate,
+                                                 neighbour_table, probe)
 
 import dolfinx
 
@@ -35,6 +36,13 @@ def test_vectorised_p2_evaluation_equals_function_eval(tmp_path):
         ours = eval_at(locator, f, points[found], cells[found])
         theirs = f.eval(points[found], cells[found]).reshape(found.sum(), -1)
         assert np.abs(ours - theirs).max() < 1e-12
+
+
+def test_neighbour_table():
+    """Two triangles sharing the edge (1, 2): each is the other's neighbour across it, opposite node 0 of
+    the first and node 3 (local 1) of the second; the other edges are boundary (−1)."""
+    table = neighbour_table(np.array([[0, 1, 2], [1, 3, 2], [4, 5, 6]], dtype=np.int32))
+    assert table.tolist() == [[1, -1, -1], [-1, 0, -1], [-1, -1, -1]]
 
 
 @pytest.mark.mpi
@@ -73,7 +81,11 @@ def test_compiled_backtracking_equals_numpy(tmp_path, monkeypatch):
     ref, ours = run(False), run(True)
     for key in ("cells", "nodes", "hinted", "owned"):
         assert np.array_equal(ref[key], ours[key]), key
-    assert (ref["cells"] < 0).any() and (ref["hinted"] != hint).any()  # the cases are exercised
+    moved = ref["hinted"] != hint
+    assert (ref["cells"] < 0).any() and moved.any()  # the cases are exercised
+    walked = _kernels.walk(feet, hint, chars.locator.x0, chars.locator.Jinv_flat, chars.locator.neighbours,
+                           1e-10, np.iinfo(np.int32).max, 64)
+    assert (walked[moved] >= 0).mean() > 0.5  # most feet that left their cell are found by the walk
     for a, b in zip(ref["values"] + ref["probes"], ours["values"] + ours["probes"]):
         assert a.shape == b.shape and np.array_equal(np.isnan(a), np.isnan(b))
         assert np.nanmax(np.abs(a - b)) <= 1e-14 * np.nanmax(np.abs(a))

@@ -16,10 +16,10 @@ import tempfile
 
 import numpy as np
 
-_here = os.path.dirname(os.path.abspath(__file__))
-if "NUMBA_CACHE_DIR" not in os.environ and not os.access(os.path.join(_here, "__pycache__")
-                                                          if os.path.isdir(os.path.join(_here, "__pycache__"))
-                                                          else _here, os.W_OK):
+_pycache = os.path.join(os.path.dirname(os.path.abspath(__file__)), "__pycache__")
+if "NUMBA_CACHE_DIR" not in os.environ and not os.access(
+        _pycache if os.path.isdir(_pycache) else os.path.dirname(_pycache), os.W_OK):
+    # installed read-only (numba's own fallback, ~/.cache/numba, fails without a writable home)
     os.environ["NUMBA_CACHE_DIR"] = os.path.join(tempfile.gettempdir(), "cosserat_fsi-numba")
 
 ENABLED = os.environ.get("COSSERAT_FSI_NO_NUMBA", "0") in ("", "0")
@@ -120,13 +120,16 @@ def p2_values(points, cells, x0, Jinv, dofs, values, bs):
 
 
 def warm_up() -> None:
-    """Compile (or load from the cache) every kernel for the argument types characteristics.py uses."""
+    """Compile (or load from the cache) every kernel for the argument types characteristics.py passes
+    (writeable and read-only point and cell arrays: quadrature nodes are read-only)."""
     if not ENABLED:
         return
-    pts = np.zeros((1, 3))
     x0, Jinv = np.zeros((1, 2)), np.array([[1.0, 0.0, 0.0, 1.0]])
-    cells = np.zeros(1, dtype=np.int32)
-    first_inside(pts, np.array([0, 1], dtype=np.int64), cells, x0, Jinv, 1e-10, 1)
-    first_inside(pts, np.array([0, 1], dtype=np.int32), cells, x0, Jinv, 1e-10, 1)
-    walk(pts, cells, x0, Jinv, np.full((1, 3), -1, dtype=np.int32), 1e-10, 1, 32)
-    p2_values(pts, cells, x0, Jinv, np.zeros((1, 6), dtype=np.int32), np.zeros(6), 1)
+    neighbours, dofs = np.full((1, 3), -1, dtype=np.int32), np.zeros((1, 6), dtype=np.int32)
+    for readonly in (False, True):
+        pts, cells = np.zeros((1, 3)), np.zeros(1, dtype=np.int32)
+        pts.flags.writeable = cells.flags.writeable = not readonly
+        for offsets in (np.array([0, 1], dtype=np.int32), np.array([0, 1], dtype=np.int64)):
+            first_inside(pts, offsets, np.zeros(1, dtype=np.int32), x0, Jinv, 1e-10, 1)
+        walk(pts, cells, x0, Jinv, neighbours, 1e-10, 1, 8)
+        p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6), 1)
