@@ -5,7 +5,7 @@ import pytest
 from mpi4py import MPI
 
 from cosserat_fsi import compat
-from cosserat_fsi.geometry import build_msh
+from cosserat_fsi.geometry import SchaeferTurek, build_msh
 from cosserat_fsi.scheme import _kernels, characteristics
 from cosserat_fsi.scheme.characteristics import (Characteristics, PointLocator, eval_at, evaluate,
                                                  neighbour_table, probe)
@@ -13,8 +13,8 @@ from cosserat_fsi.scheme.characteristics import (Characteristics, PointLocator, 
 import dolfinx
 
 
-def _mesh(tmp_path, level=0):
-    path = build_msh("schaefer_turek", level, cache_dir=tmp_path) if MPI.COMM_WORLD.rank == 0 else None
+def _mesh(tmp_path):
+    path = build_msh(SchaeferTurek(), cache_dir=tmp_path) if MPI.COMM_WORLD.rank == 0 else None
     mesh, _, _ = compat.read_msh(MPI.COMM_WORLD.bcast(path), MPI.COMM_WORLD)
     return mesh
 

@@ -9,6 +9,7 @@ dolfinx, petsc4py nor gmsh: they are loaded only by the subcommands that need th
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import platform
@@ -104,17 +105,37 @@ def _cmd_run(args) -> int:
     setup_logging(out, comm)
     log.info("cosserat-fsi %s: scene %s -> %s (%d rank%s)",
              __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
-    run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
-              restart=bool(args.restart))
+    try:
+        summary = run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
+                            restart=bool(args.restart))
+    except DivergenceError:
+        _say_how_it_did(out, comm)
+        raise
     log.info("done: %s", out)
+    _say_how_it_did(out, comm, summary)
     return 0
+
+
+def _say_how_it_did(out: Path, comm, summary: dict | None = None):
+    """The run's last lines: the benchmark table, headline observables, wall time (app/verdict.py)."""
+    if comm.rank != 0:
+        return
+    from cosserat_fsi.app.verdict import verdict_lines
+
+    if summary is None:
+        try:
+            summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return
+    for line in verdict_lines(summary):
+        log.info("%s", line)
 
 
 def _cmd_mesh(args) -> int:
     scene = load_scene(args.config, args.set)
     from cosserat_fsi.geometry import build_msh
 
-    path = build_msh(scene.geometry.name, scene.geometry.level, scene.geometry.msh_params())
+    path = build_msh(scene.geometry)
     import gmsh
 
     gmsh.initialize()
@@ -221,7 +242,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.set_defaults(func=_cmd_plot)
     study = sub.add_parser("study", help="run a ladder of runs (mesh × δt × options) and report error, time, memory")
     study.add_argument("study", help="study YAML file (see studies/)")
-    study.add_argument("--out", help="folder for the report, figures and runs (default: docs/)")
+    study.add_argument("--out", help="folder for the report, figures and runs (default: the current directory)")
     study.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1)")
     study.add_argument("--report-only", action="store_true", help="only rewrite the report from finished runs")
     study.set_defaults(func=_cmd_study)
