@@ -154,8 +154,9 @@ STEADY_NOTES = """\
 2D-1 by Newton: c_D converges with observed order 2.1, 1.8, 2.9 (L0→L3: −0.29, −0.067, −0.019, −0.0025 %);
 c_L and Δp are within 0.3 % and 0.01 % from L2 on, where their errors change sign (L3: c_L +0.26 %, Δp
 −0.006 %: the pressure probes and the small lift plateau). The shipped 2D-1 (L2) takes 3.0 s of run wall
-time, 4.2 s for the whole process, with a warm form cache on an idle machine (cold cache: 9.6 s, of which
-3.4 s compiling the forms and 0.8 s meshing); the time-stepped run it replaces (3,000 first-order steps to
+time, 4.2 s for the whole process, with a warm form and mesh cache on an idle machine; a cold cache (forms
+compiled, mesh generated) adds 3.9 s (8.1 s against 4.3 s warm, both measured with the 2 cores shared at a
+load of 4.5); the time-stepped run it replaces (3,000 first-order steps to
 t = 30 on L1) took 106 s and missed c_D by +1.5 %. Wall times in the tables above were measured with other
 jobs on the 2 cores. 1 and 2 ranks give the same forces and tip displacements to the 11 digits of
 timeseries.csv (tests/test_steady.py, FSI1), on both stacks.
