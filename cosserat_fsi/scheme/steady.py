@@ -34,7 +34,11 @@ def steady_stepper(problem, state, boundary, motion, timers, comm):
     if problem.model.solid:
         from .steady_solid import SteadySolid
 
+        log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
+                 "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
         return SteadySolid(problem, state, boundary, motion, timers, comm)
+    log.info("steady: Newton on the steady equations (convection (u.grad)u%s), MUMPS",
+             ", (u.grad)omega" if problem.model.micro_rotation else "")
     return SteadyFluid(problem, state, boundary, motion, timers, comm)
 
 
