@@ -12,7 +12,8 @@ from __future__ import annotations
 import difflib
 import re
 from pathlib import Path
-from typing import Annotated, Any, Literal, Sequence
+from typing import Annotated, Any, Literal
+from collections.abc import Sequence
 
 import yaml
 import numpy as np
@@ -78,7 +79,7 @@ YamlLoader.add_implicit_resolver(
 
 def yaml_load(text: str) -> Any:
     """Parse YAML text safely (no tags, no code), with ``1e-3`` read as a float."""
-    return yaml.load(text, Loader=YamlLoader)  # noqa: S506 (YamlLoader is a SafeLoader)
+    return yaml.load(text, Loader=YamlLoader)  # a SafeLoader: no tags, no code
 
 
 # ------------------------------------------------------------------------------------------- schema

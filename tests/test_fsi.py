@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -177,15 +175,14 @@ def test_closed_box_energy_never_increases():
     assert np.all(np.diff(energy) <= 1e-12 * energy[0]), np.diff(energy).max()
 
 
-def test_inverted_cell_stops_with_exit_3(repo_root, tmp_path):
+def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     """A disk thrown across the box in one step would invert cells: exit 3, the time and place named,
     and the output written so far kept."""
     cfg = tmp_path / "box.yaml"
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
                    "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\ntime: {dt: 0.05, t_end: 1.0}\n")
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "run", str(cfg), "--out", str(out),
-                           "--no-progress"], capture_output=True, text=True, timeout=300)
+    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
     assert proc.returncode == 3, proc.stderr
     line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
     assert len(line) == 1 and "near (" in line[0] and "t = " in line[0] and "Traceback" not in proc.stderr

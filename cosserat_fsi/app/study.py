@@ -14,9 +14,9 @@ levels × δt × scheme × solver options):
 
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
 ``<out>/runs/study-<name>/<run id>/`` (``<out>``: ``--out``, default the current directory), through the
-campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume. The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the
-benchmark's reference, wall time, time per step, the per-phase times and the peak memory, and
-``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto front.
+campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume.
+The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the benchmark's
+reference, wall time, time per step, the per-phase times and the peak memory, and ``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto front.
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def write_report(study: Study, todo, out: Path) -> Path:
     head = ("| run | vertices | dofs | status | " + " | ".join(f"error {k}" for k in study.observables)
             + " | wall (s) | s/step | " + " | ".join(PHASES) + " | peak memory (MiB) |")
     rows += [head, "|" + "---|" * (head.count("|") - 1)]
-    for overrides, folder in todo:
+    for _, folder in todo:
         m = _measure(study, folder)
         run = folder.name
         if m is None:

@@ -9,9 +9,8 @@ h = 0.04 on it growing to 0.06 at distance 0.1, both halved per level (unstructu
 Vertex counts (defaults, gmsh 4.8; 4.15 differs by < 0.4 %), L0 / L1 / L2 / L3: 452 / 1,602 / 6,089 / 23,808.
 """
 
-from typing import ClassVar, Literal
+from typing import Literal
 
-import math
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh

@@ -5,7 +5,7 @@ level; along the channel round(8 * length / height) (at least 1) times the same 
 L0: 81 vertices (8x8), L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
-from typing import ClassVar, Literal
+from typing import Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh

@@ -4,7 +4,7 @@ Structured (transfinite) triangles, "Left" diagonals, 8x8 divisions at level 0, 
 L0: 81 vertices, L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
-from typing import ClassVar, Literal
+from typing import Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
