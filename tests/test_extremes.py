@@ -9,7 +9,8 @@ import pytest
 from extremes import run_case, verdict
 
 
-@pytest.mark.parametrize("case", ["dt-x10", "light-solid", "mu_r-1000"])
+@pytest.mark.parametrize("case", ["dt-x10", pytest.param("light-solid", marks=pytest.mark.slow),
+                                  pytest.param("mu_r-1000", marks=pytest.mark.slow)])
 def test_extreme_case_is_bounded_or_stops_cleanly(tmp_path, case):
     out = run_case(case, tmp_path, extra={"time.t_end": 0.4})
     v = verdict(out)

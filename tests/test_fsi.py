@@ -80,6 +80,7 @@ def _tg_wobble(X, t):
     return 0.25 * np.sin(2 * np.pi * t)[None] * np.column_stack([bump, -bump * X[:, 0] / np.pi])
 
 
+@pytest.mark.slow
 def test_bdf2_on_a_moving_mesh_is_second_order():
     """BDF2 characteristics on a mesh that moves independently of the flow: the Taylor–Green errors equal
     the fixed-mesh ones (measured: 1.1478e-2, 2.553e-3, 5.99e-4 for δt = 0.2, 0.1, 0.05 on both; rates
@@ -93,6 +94,7 @@ def test_bdf2_on_a_moving_mesh_is_second_order():
     assert np.allclose(moving, fixed, rtol=0.01), (moving, fixed)
 
 
+@pytest.mark.slow
 def test_solid_time_order():
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
@@ -134,6 +136,7 @@ def _downstream_wobble(X, t):
     return np.column_stack([0 * s, 0.015 * np.sin(2 * np.pi * t / 0.25) * s])
 
 
+@pytest.mark.slow
 def test_moving_mesh_cfd1_matches_fixed_mesh():
     """CFD1 (Re = 20) on a mesh moved back and forth gives the fixed-mesh drag to discretisation
     accuracy; without the ALE mesh-velocity correction in the feet it does not."""
@@ -146,6 +149,7 @@ def test_moving_mesh_cfd1_matches_fixed_mesh():
     assert err_no_ale > 3 * err_ale, (err_ale, err_no_ale)
 
 
+@pytest.mark.slow
 def test_flag_free_vibration_matches_euler_bernoulli():
     """First bending frequency of the clamped flag (small amplitude) vs Euler–Bernoulli with bending
     stiffness 4 μ_s h³/12 (incompressible plane strain, E/(1 − ν²) = 4 μ_s): within 3 %. This pins the

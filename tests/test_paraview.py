@@ -106,6 +106,7 @@ def test_pvpython_opens_the_run(run_dir, tmp_path):
     _pvpython(run_dir, tmp_path)
 
 
+@pytest.mark.slow
 def test_files_written_by_two_ranks_read_the_same(run_cli, run_dir, tmp_path, repo_root, mpirun):
     """The same run under mpirun -n 2: identical mesh, topology and (to round-off) fields in the reader."""
     import h5py

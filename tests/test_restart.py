@@ -90,6 +90,7 @@ def _config(tmp_path, raw=ST, **time):
     return path
 
 
+@pytest.mark.slow
 def test_sigterm_writes_a_checkpoint_and_the_restart_completes(run_cli, tmp_path):
     config = _config(tmp_path, t_end=40.0)  # 800 steps: the signal arrives mid-run
     out = tmp_path / "run"
