@@ -15,7 +15,8 @@ from cosserat_fsi.io import read_timeseries
 def _run(run_cli, repo_root, tmp_path, *sets):
     out = tmp_path / "run"
     proc = run_cli("run", repo_root / "configs/schaefer_turek_2d1.yaml", "--out", out, "--no-progress",
-                   *[a for s in ["geometry.level=0", *sets] for a in ("--set", s)], cwd=tmp_path)
+                   *[a for s in ["geometry.level=0", "time.scheme=characteristics1", *sets] for a in ("--set", s)],
+                   cwd=tmp_path)
     return proc, out
 
 

@@ -9,6 +9,7 @@ dolfinx, petsc4py nor gmsh: they are loaded only by the subcommands that need th
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import platform
@@ -104,10 +105,30 @@ def _cmd_run(args) -> int:
     setup_logging(out, comm)
     log.info("cosserat-fsi %s: scene %s -> %s (%d rank%s)",
              __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
-    run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
-              restart=bool(args.restart))
+    try:
+        summary = run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
+                            restart=bool(args.restart))
+    except DivergenceError:
+        _say_how_it_did(out, comm)
+        raise
     log.info("done: %s", out)
+    _say_how_it_did(out, comm, summary)
     return 0
+
+
+def _say_how_it_did(out: Path, comm, summary: dict | None = None):
+    """The run's last lines: the benchmark table, headline observables, wall time (app/verdict.py)."""
+    if comm.rank != 0:
+        return
+    from cosserat_fsi.app.verdict import verdict_lines
+
+    if summary is None:
+        try:
+            summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return
+    for line in verdict_lines(summary):
+        log.info("%s", line)
 
 
 def _cmd_mesh(args) -> int:

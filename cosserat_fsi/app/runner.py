@@ -18,7 +18,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
-from ..analysis import periodic_analysis, relative_error
+from ..analysis import relative_error
 from ..config import dump_resolved
 from ..errors import DivergenceError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
@@ -27,7 +27,8 @@ from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
-from ..scheme.stepper import Stepper
+from ..scheme.steady import make_stepper
+from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -61,7 +62,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         (out_dir / "config.yaml").write_text(dump_resolved(scene), encoding="utf-8")
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
     n_vertices = mesh.topology.index_map(0).size_global
-    stepper = Stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
+    stepper = make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     observables = Observables(stepper)  # on the reference mesh (point A is found there)
     if restart:
         stepper.restore(state)
@@ -72,7 +73,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     log.info("dofs: %s", stepper.num_dofs())
     setup_time = time.perf_counter() - wall0
 
-    n_steps = int(round(scene.time.t_end / scene.time.dt))
+    steady = scene.time.scheme == "steady"
+    n_steps = 1 if steady else int(round(scene.time.t_end / scene.time.dt))
     every = scene.output.every
     series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
                               keep_rows=meta["rows"] if restart else None)
@@ -94,7 +96,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
     try:
         with _StopSignals() as stop:
-            if fields is not None and not restart:
+            if fields is not None and not restart and not steady:
                 _write_fields(fields, stepper)
 
             def observe():  # after the solve, on the mesh the step was solved on
@@ -103,7 +105,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
             for k in range(stepper.step_count, n_steps):
                 stepper.advance(before_move=observe)
-                if fields is not None and (k + 1) % every == 0:
+                if fields is not None and (steady or (k + 1) % every == 0):
                     with stepper.timers("output"):
                         _write_fields(fields, stepper)
                 if bar is not None:
@@ -117,6 +119,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                                       f"{out_dir}`", signum)
                 if every_ck and (k + 1) % every_ck == 0 and k + 1 < n_steps:
                     checkpoint()
+            if steady:
+                stepper.check()  # a Newton that did not converge: exit 3 after the outputs
     except DivergenceError as exc:
         status, message = "diverged", str(exc)
         raise
@@ -207,25 +211,17 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(stepper.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
-            "periodic": _periodic(series),
         }
+        # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
+        summary["signals"], summary["periodic"] = classify_signals(series)
+        if getattr(stepper, "report", None) is not None:  # steady solve: Newton's iterations and residuals
+            summary["newton"] = stepper.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")
     return comm.bcast(summary, root=0)
-
-
-def _periodic(series: dict) -> dict:
-    """Periodic analysis of every observable that oscillates (over its last full periods)."""
-    out = {}
-    for key, values in series.items():
-        if key != "t" and len(values) > 10:
-            analysis = periodic_analysis(series["t"], values)
-            if analysis.get("method") not in (None, "constant"):
-                out[key] = analysis
-    return out
 
 
 def compare_with_reference(scene, summary: dict) -> dict:
