@@ -63,7 +63,7 @@ def _num(value) -> str:
     return "–" if value is None else f"{value:.6g}"
 
 
-def _benchmark_rows(summary: dict) -> list[tuple]:
+def benchmark_rows(summary: dict) -> list[tuple]:
     """(quantity, value, reference, error, tolerance, verdict) for each compared quantity."""
     bench = summary.get("benchmark") or {}
     name = bench.get("name")
@@ -100,7 +100,7 @@ def _table(header: tuple, rows: list[tuple]) -> list[str]:
 def verdict_lines(summary: dict) -> list[str]:
     """The closing lines of a run: benchmark table, headline observables, wall time."""
     lines = []
-    rows = _benchmark_rows(summary)
+    rows = benchmark_rows(summary)
     if rows:
         bench = summary["benchmark"]["name"]
         judged = [r for r in rows if r[5] != "–"]

@@ -34,7 +34,11 @@ def make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=None):
     if scene.has_solid:
         from .steady_solid import SteadySolid
 
+        log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
+                 "(static solid%s)", ", ALE fluid" if scene.has_fluid else "")
         return SteadySolid(scene, mesh, cell_tags, facet_tags, comm, exact=exact)
+    log.info("steady: Newton on the steady equations (convection (u.grad)u%s), MUMPS",
+             ", (u.grad)omega" if scene.has_micropolar else "")
     return SteadyFluid(scene, mesh, cell_tags, facet_tags, comm, exact=exact)
 
 
