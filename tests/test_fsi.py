@@ -11,18 +11,17 @@ from mpi4py import MPI
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.app.runner import load_mesh
-from cosserat_fsi.scheme.stepper import Stepper
+from cosserat_fsi.simulation import Simulation
 
 
 def _run(scene, comm=MPI.COMM_WORLD, **kwargs):
     mesh, ct, ft, _ = load_mesh(scene, comm)
-    stepper = Stepper(scene, mesh, ct, ft, comm, **kwargs)
-    obs = Observables(stepper)
+    sim = Simulation(scene, mesh, ct, ft, comm, **kwargs)
+    obs = Observables(sim)
     rows = []
-    for _ in range(int(round(scene.time.t_end / scene.time.dt))):
-        stepper.advance(before_move=lambda: rows.append({"t": stepper.t, **obs.evaluate()}))
+    sim.run(sim.steps_to(scene.time.t_end), observers=[lambda sim: rows.append({"t": sim.t, **obs.evaluate()})])
     series = {k: np.array([r[k] for r in rows]) for k in rows[0]} if rows else {}
-    return stepper, series
+    return sim, series
 
 
 class Uniform:
@@ -44,9 +43,9 @@ def test_free_stream_is_preserved_under_mesh_motion():
     """A uniform flow stays uniform to round-off on a mesh that moves independently of the flow."""
     scene = validate_scene({"geometry": {"name": "square", "level": 1}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "time": {"dt": 0.01, "t_end": 0.2}})
-    stepper, _ = _run(scene, exact=Uniform(), prescribed_motion=_wobble)
-    u = stepper.u_n.x.array.reshape(-1, 2)
-    assert stepper.motion.displacement.x.array.std() > 0  # the mesh did move
+    sim, _ = _run(scene, exact=Uniform(), prescribed_motion=_wobble)
+    u = sim.velocity.x.array.reshape(-1, 2)
+    assert sim.motion.displacement.x.array.std() > 0  # the mesh did move
     assert np.abs(u - Uniform.U).max() < 1e-10
 
 
@@ -61,16 +60,17 @@ def _taylor_green_error(scheme, dt, motion):
     scene = validate_scene({"geometry": {"name": "square", "level": 2, "length": float(np.pi)},
                             "fluid": {"rho": 1.0, "mu": 0.1}, "time": {"dt": dt, "t_end": T, "scheme": scheme}})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
-    stepper = Stepper(scene, mesh, ct, ft, exact=exact, prescribed_motion=motion)
-    n, error = int(round(T / dt)), []
+    sim = Simulation(scene, mesh, ct, ft, exact=exact, prescribed_motion=motion)
+    n, error = sim.steps_to(T), []
 
-    def measure():
-        u_exact = dolfinx.fem.Function(stepper.u_n.function_space)
+    def measure(sim):
+        if sim.step_count < n:
+            return
+        u_exact = dolfinx.fem.Function(sim.velocity.function_space)
         u_exact.interpolate(lambda x: exact.velocity(x, T))
-        error.append(_l2(stepper, stepper.u_n - u_exact))
+        error.append(_l2(sim, sim.velocity - u_exact))
 
-    for k in range(n):
-        stepper.advance(before_move=measure if k == n - 1 else None)
+    sim.run(n, observers=[measure])
     return error[0]
 
 
@@ -120,13 +120,15 @@ def _cfd1_drag(prescribed_motion=None, drop_mesh_velocity=False):
                             "fluid": {"rho": 1000.0, "mu": 1.0}, "inflow": {"u_mean": 0.2},
                             "time": {"dt": 0.02, "t_end": 1.0}})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
-    stepper = Stepper(scene, mesh, ct, ft, prescribed_motion=prescribed_motion)
-    obs = Observables(stepper)
+    sim = Simulation(scene, mesh, ct, ft, prescribed_motion=prescribed_motion)
+    obs = Observables(sim)
     drag = []
-    for _ in range(50):
+    def drop(sim):
         if drop_mesh_velocity:
-            stepper.mesh_velocity.x.array[:] = 0.0
-        stepper.advance(before_move=lambda: drag.append(obs.evaluate()["drag"]))
+            sim.state.mesh_velocity.x.array[:] = 0.0
+
+    drop(sim)
+    sim.run(50, observers=[lambda sim: drag.append(obs.evaluate()["drag"])], after_step=[drop])
     return np.array(drag)
 
 
@@ -224,9 +226,9 @@ def test_solid_area_is_kept_by_the_volume_correction(correction):
                             "solid": {"rho": 1000.0, "mu_s": 2.0e6, "initial_velocity": [0.0, 1.0],
                                       "volume_correction": correction},
                             "time": {"dt": 0.01, "t_end": 0.5}})
-    stepper, _ = _run(scene)
-    area = stepper.comm.allreduce(dolfinx.fem.assemble_scalar(
-        compat.form(dolfinx.fem.Constant(stepper.mesh, 1.0) * ufl.dx)), op=MPI.SUM)
+    sim, _ = _run(scene)
+    area = sim.comm.allreduce(dolfinx.fem.assemble_scalar(
+        compat.form(dolfinx.fem.Constant(sim.mesh, 1.0) * ufl.dx)), op=MPI.SUM)
     drift = abs(area / (0.35 * 0.02) - 1)
     assert (drift < 1e-3) if correction else (drift > 3e-3), drift
 
@@ -239,9 +241,9 @@ def test_reused_factorisation_matches_refactorising_every_step():
                                 "fluid": {"rho": 1000.0, "mu": 1.0}, "solid": {"rho": 1000.0, "mu_s": 0.5e5},
                                 "inflow": {"u_mean": 1.0, "ramp_time": 0.1}, "time": {"dt": 0.01, "t_end": 0.2},
                                 "solver": {"reuse_factorization": reuse}})
-        stepper, results[reuse] = _run(scene)
+        sim, results[reuse] = _run(scene)
         if reuse:
-            assert stepper.factorisations < 5  # the point of it
+            assert sim.stepper.solver.factorisations < 5  # the point of it
     for key in ("uy_A", "drag", "lift"):
         scale = np.abs(results[False][key]).max()
         assert np.abs(results[True][key] - results[False][key]).max() <= 1e-6 * scale, key
