@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -82,6 +80,7 @@ def _tg_wobble(X, t):
     return 0.25 * np.sin(2 * np.pi * t)[None] * np.column_stack([bump, -bump * X[:, 0] / np.pi])
 
 
+@pytest.mark.slow
 def test_bdf2_on_a_moving_mesh_is_second_order():
     """BDF2 characteristics on a mesh that moves independently of the flow: the Taylor–Green errors equal
     the fixed-mesh ones (measured: 1.1478e-2, 2.553e-3, 5.99e-4 for δt = 0.2, 0.1, 0.05 on both; rates
@@ -95,6 +94,7 @@ def test_bdf2_on_a_moving_mesh_is_second_order():
     assert np.allclose(moving, fixed, rtol=0.01), (moving, fixed)
 
 
+@pytest.mark.slow
 def test_solid_time_order():
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
@@ -138,6 +138,7 @@ def _downstream_wobble(X, t):
     return np.column_stack([0 * s, 0.015 * np.sin(2 * np.pi * t / 0.25) * s])
 
 
+@pytest.mark.slow
 def test_moving_mesh_cfd1_matches_fixed_mesh():
     """CFD1 (Re = 20) on a mesh moved back and forth gives the fixed-mesh drag to discretisation
     accuracy; without the ALE mesh-velocity correction in the feet it does not."""
@@ -150,6 +151,7 @@ def test_moving_mesh_cfd1_matches_fixed_mesh():
     assert err_no_ale > 3 * err_ale, (err_ale, err_no_ale)
 
 
+@pytest.mark.slow
 def test_flag_free_vibration_matches_euler_bernoulli():
     """First bending frequency of the clamped flag (small amplitude) vs Euler–Bernoulli with bending
     stiffness 4 μ_s h³/12 (incompressible plane strain, E/(1 − ν²) = 4 μ_s): within 3 %. This pins the
@@ -179,15 +181,14 @@ def test_closed_box_energy_never_increases():
     assert np.all(np.diff(energy) <= 1e-12 * energy[0]), np.diff(energy).max()
 
 
-def test_inverted_cell_stops_with_exit_3(repo_root, tmp_path):
+def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     """A disk thrown across the box in one step would invert cells: exit 3, the time and place named,
     and the output written so far kept."""
     cfg = tmp_path / "box.yaml"
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
                    "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\ntime: {dt: 0.05, t_end: 1.0}\n")
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "run", str(cfg), "--out", str(out),
-                           "--no-progress"], capture_output=True, text=True, timeout=300)
+    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
     assert proc.returncode == 3, proc.stderr
     line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
     assert len(line) == 1 and "near (" in line[0] and "t = " in line[0] and "Traceback" not in proc.stderr

@@ -100,6 +100,7 @@ def _schaefer_turek_2d1(level, comm=MPI.COMM_WORLD, t_end=10.0, dt=0.02):
     return history
 
 
+@pytest.mark.slow
 def test_schaefer_turek_2d1_coarse_and_refined():
     """2D-1 drag, lift, Δp on levels 0 and 1 (δt = 0.02, t = 10): within the coarse tolerances, and
     refinement moves c_D closer to the reference (shared/reference/benchmarks.yaml)."""
