@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 
 from .. import compat
-from ..errors import DivergenceError
+from ..errors import DivergenceError, InputError
 from .newton import Newton, NewtonReport
 from .stepper import Stepper
 
@@ -33,6 +33,10 @@ def make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=None):
         return Stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact)
     if scene.has_solid:
         from .steady_solid import SteadySolid
+
+        if scene.has_fluid and scene.has_micropolar:
+            raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
+                             "steady solid solve has no micro-rotation); use characteristics1 or characteristics2")
 
         log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
                  "(static solid%s)", ", ALE fluid" if scene.has_fluid else "")
