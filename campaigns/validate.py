@@ -145,7 +145,8 @@ SWEEP_CASES = [Case(f"c1sweep-{c1:.3g}", "configs/seed_fsi3.yaml", {"solid.mu_s"
 _FIRST = ("st2d1-L1-c2-dt0.01", "st2d1-L2-c2-dt0.01", "cfd1-L1-c2-dt0.02", "cfd2-L1-c2-dt0.005",
           "cfd2-L1-c2-dt0.0025", "cfd3-seed-c1-dt0.005", "cfd3-seed-c2-dt0.005", "cfd3-L1-c2-dt0.0025",
           "cfd3-seed-c1-dt0.001", "cfd3-L1-c2-dt0.001", "csm1-L1-eq", "csm2-L1-eq", "fsi1-L1-dt0.01", "seed-dt0.005",
-          "fsi3-seed-dt0.002", "fsi3-seed-dt0.001", "fsi3-L1-dt0.002", "fsi3-L1-dt0.001")  # the cheapest complete ladder first; the rest after
+          "fsi3-seed-dt0.002", "fsi3-seed-dt0.001", "fsi3-L1-dt0.002", "fsi3-L1-dt0.001")
+# the cheapest complete ladder first; the rest after
 _ALL = CASES + FSI_CASES + STEADY_CASES + SWEEP_CASES
 ALL_CASES = [c for i in _FIRST for c in _ALL if c.id == i] + [c for c in _ALL if c.id not in _FIRST]
 
@@ -208,7 +209,8 @@ def previous_rows(report: Path) -> dict[str, list[str]]:
 
 def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
     previous = previous or {}
-    rows = ["| case | mesh (vertices) | scheme | δt | observable | value | reference | error | tolerance | ok | wall (s) | s/step |",
+    rows = ["| case | mesh (vertices) | scheme | δt | observable | value | reference | error | tolerance | ok "
+            "| wall (s) | s/step |",
             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for case in cases:
         path = runs / case.id / "summary.json"
@@ -229,7 +231,8 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
             err = (m["value"] - m["reference"]) / abs(m["reference"]) if m["reference"] else None
             ok = err is not None and abs(err) <= tol
             rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {dt} | {key} | {m['value']:.6g} | "
-                        f"{m['reference']:.6g} | {'–' if err is None else format(err, '+.2%')} | {tol:.1%} | {'yes' if ok else 'no'} | "
+                        f"{m['reference']:.6g} | {'–' if err is None else format(err, '+.2%')} | {tol:.1%} | "
+                        f"{'yes' if ok else 'no'} | "
                         f"{s['wall_time']['total']:.0f} | {s['wall_time']['per_step']:.3f} |")
     return rows
 
