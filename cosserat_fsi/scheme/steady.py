@@ -103,9 +103,9 @@ class SteadyStepper:
             observe()
         if not report.converged:
             last = report.history[-1] if report.history else {}
-            self.failure = (f"Newton did not converge ({report.message}; last |F| = "
-                            f"{last.get('residual', float('nan')):.3e}, relative {last.get('relative', float('nan')):.2e}); "
-                            f"the last iterate and the residual history are written")
+            residual, relative = last.get("residual", float("nan")), last.get("relative", float("nan"))
+            self.failure = (f"Newton did not converge ({report.message}; last |F| = {residual:.3e}, "
+                            f"relative {relative:.2e}); the last iterate and the residual history are written")
 
     def check(self) -> None:
         """Raise DivergenceError (exit 3) if the solve failed; called by the runner after the outputs."""
