@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 
 from .. import compat
-from ..errors import DivergenceError
+from ..errors import DivergenceError, InputError
 from .characteristics import PointLocator
 from .newton import Newton, NewtonReport
 
@@ -33,6 +33,10 @@ def steady_stepper(problem, state, boundary, motion, timers, comm):
     """The steady solver of a scene's kind (Simulation's stepper for ``time.scheme: steady``)."""
     if problem.model.solid:
         from .steady_solid import SteadySolid
+
+        if problem.scene.has_fluid and problem.model.micro_rotation:
+            raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
+                             "steady solid solve has no micro-rotation); use characteristics1 or characteristics2")
 
         log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
                  "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
