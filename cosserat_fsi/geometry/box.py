@@ -26,6 +26,8 @@ def validate(params):
     """Constraints between parameters beyond "a number > 0"."""
     if not params["radius"] < min(CENTRE):
         raise errors.InputError(f"geometry.radius: must be < {min(CENTRE)} (got {params['radius']!r})")
+    if not params["radius"] >= 0.01:  # below, the disk is smaller than the cells around it
+        raise errors.InputError(f"geometry.radius: must be >= 0.01 (got {params['radius']!r})")
 
 
 def describe(params):

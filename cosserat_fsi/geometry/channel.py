@@ -23,6 +23,12 @@ def describe(params):
     }
 
 
+def estimate_cells(scale, params):
+    """Number of triangles ``build`` makes (exact; cheap, before gmsh runs)."""
+    ny = round(8 / scale)
+    return 2 * max(1, round(8 * params["length"] / params["height"])) * ny // 8 * ny
+
+
 def build(gmsh, scale, params):
     """Create and mesh the model in the current gmsh session; divisions are 8 / ``scale`` across."""
     length, height = params["length"], params["height"]

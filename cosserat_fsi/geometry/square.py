@@ -23,6 +23,11 @@ def describe(params):
     }
 
 
+def estimate_cells(scale, params):
+    """Number of triangles ``build`` makes (exact; cheap, before gmsh runs)."""
+    return 2 * round(8 / scale) ** 2
+
+
 def build(gmsh, scale, params):
     """Create and mesh the model in the current gmsh session; 8 / ``scale`` divisions per side."""
     n = round(8 / scale)
