@@ -152,27 +152,27 @@ test-mpi-latest: setup-latest
 
 # ------------------------------------------------------------------------------------ studies
 validate: $(RUN_SETUP)
-	$(PY) -m cosserat_fsi.validate
+	$(PY) campaigns/validate.py
 
 # Seed figures 5-6: amplitude of the flag tip against c1 (docs/figures/seed_fig5_6_c1_sweep.png)
 sweep-c1: $(RUN_SETUP)
-	$(PY) -m cosserat_fsi.validate --only 'c1sweep*'
+	$(PY) campaigns/validate.py --only 'c1sweep*'
 
 # The seed's figures 3-10 into docs/figures and docs/seed_reproduction.md (runs resume; ~30 min on 2 cores)
 figures: $(RUN_SETUP)
-	$(PY) -m cosserat_fsi.seed_figures
+	$(PY) campaigns/seed_figures.py
 
 # Stability at the extremes (stiff/soft/light/heavy solid, dt x 10, high Re, mu_r/mu = 1000, tiny
 # micro-inertia) into docs/extremes.md (~10 min on 2 cores)
 extremes: $(RUN_SETUP)
-	$(PY) -m cosserat_fsi.extremes
+	$(PY) campaigns/extremes.py
 
 # Speed/accuracy ladders (studies/*.yaml) into docs/study_<name>.md + Pareto plots, then the extremes
 # (hours on 2 cores;
 # finished runs are kept, so it resumes)
 study: $(RUN_SETUP)
-	@for s in studies/*.yaml; do $(PY) -m cosserat_fsi.cli study $$s --jobs 2 || exit 1; done
-	$(PY) -m cosserat_fsi.extremes
+	@for s in studies/*.yaml; do $(PY) -m cosserat_fsi study $$s --jobs 2 || exit 1; done
+	$(PY) campaigns/extremes.py
 
 info: setup setup-latest
 	@echo "=== Debian stack ($(VENV)) ==="

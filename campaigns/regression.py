@@ -66,7 +66,7 @@ def _env() -> dict:
 
 def _cli(config, sets, out, extra=(), ranks=1):
     cmd = ([*_mpirun(), "-n", str(ranks)] if ranks > 1 else []) + [
-        sys.executable, "-m", "cosserat_fsi.cli", "run", str(ROOT / config), "--out", str(out), "--no-progress",
+        sys.executable, "-m", "cosserat_fsi", "run", str(ROOT / config), "--out", str(out), "--no-progress",
         *[a for s in sets for a in ("--set", s)], *extra]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=1800)
     if proc.returncode != 0:

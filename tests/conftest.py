@@ -25,6 +25,9 @@ except ImportError as exc:  # ModuleNotFoundError included
         raise
 
 REPO = Path(__file__).resolve().parents[1]
+# The campaign scripts (campaigns/*.py) are not installed: tests import them from the repository.
+if str(REPO / "campaigns") not in sys.path:
+    sys.path.insert(0, str(REPO / "campaigns"))
 
 
 @pytest.fixture(scope="session")

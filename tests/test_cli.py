@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from cosserat_fsi import cli
+from cosserat_fsi.app import cli
 from cosserat_fsi.errors import DivergenceError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -18,7 +18,7 @@ CONFIG = REPO / "configs" / "turek_hron_cfd1.yaml"
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "cosserat_fsi", *map(str, args)],
                           capture_output=True, text=True, cwd=cwd, timeout=120)
 
 
@@ -90,21 +90,21 @@ def test_info_prints_versions():
 
 @pytest.fixture
 def fake_runner(monkeypatch):
-    """Replace ``cosserat_fsi.runner`` by a stub; ``calls`` records its arguments."""
+    """Replace ``cosserat_fsi.app.runner`` by a stub; ``calls`` records its arguments."""
     pytest.importorskip("mpi4py")
-    module = types.ModuleType("cosserat_fsi.runner")
+    module = types.ModuleType("cosserat_fsi.app.runner")
     module.calls = []
     module.error = None
 
     def run_scene(scene, out_dir, comm, progress, restart=False):
         module.calls.append((scene, out_dir, progress))
-        logging.getLogger("cosserat_fsi.runner").info("stub step")
+        logging.getLogger("cosserat_fsi.app.runner").info("stub step")
         if module.error:
             raise module.error
         return {"ok": True}
 
     module.run_scene = run_scene
-    monkeypatch.setitem(sys.modules, "cosserat_fsi.runner", module)
+    monkeypatch.setitem(sys.modules, "cosserat_fsi.app.runner", module)
     yield module
     for handler in list(cli.log.handlers):
         cli.log.removeHandler(handler)

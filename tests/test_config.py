@@ -144,7 +144,7 @@ def test_resolved_config_round_trips(tmp_path, path):
 
 
 def test_loading_a_scene_imports_no_heavy_modules(tmp_path):
-    code = ("import sys; from cosserat_fsi.config import load_scene; import cosserat_fsi.cli; "
+    code = ("import sys; from cosserat_fsi.config import load_scene; import cosserat_fsi.app.cli; "
             f"load_scene({str(CONFIGS[0])!r}); "
             "print(sorted(m for m in ('dolfinx', 'petsc4py', 'gmsh', 'mpi4py') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from cosserat_fsi.extremes import run_case, verdict
+from extremes import run_case, verdict
 
 
 @pytest.mark.parametrize("case", ["dt-x10", "light-solid", "mu_r-1000"])

@@ -12,7 +12,7 @@ from mpi4py import MPI
 
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.observables import Observables
-from cosserat_fsi.runner import load_mesh
+from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.scheme.stepper import Stepper
 
 
@@ -184,7 +184,7 @@ def test_inverted_cell_stops_with_exit_3(repo_root, tmp_path):
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
                    "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\ntime: {dt: 0.05, t_end: 1.0}\n")
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", "run", str(cfg), "--out", str(out),
+    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "run", str(cfg), "--out", str(out),
                            "--no-progress"], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 3, proc.stderr
     line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]

@@ -22,7 +22,7 @@ from cosserat_fsi.config import validate_scene
 from cosserat_fsi.exact import NP, UFL, MicropolarPoiseuille, MicropolarTaylorGreen
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.stress import cauchy_stress
-from cosserat_fsi.runner import load_mesh
+from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.scheme.characteristics import probe
 from cosserat_fsi.scheme.stepper import Stepper
 
@@ -374,7 +374,7 @@ def test_exact_solution_scenes_report_converging_errors(repo_root, tmp_path, con
     in summary.json that converge: Poiseuille over mesh levels 0 → 1 (P2: rate ≈ 3; measured u 2.98,
     ω 3.0), Taylor–Green over δt 0.1 → 0.05 on level 1 (BDF2; measured u 1.94, ω 1.37: the stiff ω mode
     λ = −6.09 and the first-order start step, see test_taylor_green_time_order)."""
-    from cosserat_fsi.runner import run_scene
+    from cosserat_fsi.app.runner import run_scene
     from cosserat_fsi.config import load_scene
 
     errors = []

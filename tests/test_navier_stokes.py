@@ -14,7 +14,7 @@ from cosserat_fsi import compat
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.observables import Observables, schaefer_turek_coefficients
 from cosserat_fsi.references import reference_for
-from cosserat_fsi.runner import load_mesh
+from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.scheme.characteristics import probe
 from cosserat_fsi.scheme.stepper import Stepper
 

@@ -44,7 +44,7 @@ print("JSON" + json.dumps(out))
 
 
 def _run(out, repo_root, launcher=(), env=None):
-    cmd = [*launcher, sys.executable, "-m", "cosserat_fsi.cli", "run", str(repo_root / "configs/turek_hron_fsi3.yaml"),
+    cmd = [*launcher, sys.executable, "-m", "cosserat_fsi", "run", str(repo_root / "configs/turek_hron_fsi3.yaml"),
            "--out", str(out), "--no-progress", "--set", "geometry.level=0", "--set", "time.dt=0.01",
            "--set", "time.t_end=0.05", "--set", "output.every=1", "--set", "solid.mu_s=2.0e4",
            "--set", "inflow.ramp_time=0.01"]

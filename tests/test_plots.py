@@ -15,7 +15,7 @@ from cosserat_fsi.io import read_timeseries
 @pytest.fixture(scope="module")
 def fsi_run(tmp_path_factory, repo_root):
     out = tmp_path_factory.mktemp("plot") / "run"
-    cmd = [sys.executable, "-m", "cosserat_fsi.cli", "run", str(repo_root / "configs/turek_hron_fsi3.yaml"),
+    cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(repo_root / "configs/turek_hron_fsi3.yaml"),
            "--out", str(out), "--no-progress", "--set", "geometry.level=0", "--set", "time.dt=0.01",
            "--set", "time.t_end=0.06", "--set", "output.every=1", "--set", "solid.mu_s=2.0e4",
            "--set", "inflow.ramp_time=0.01"]
@@ -26,7 +26,7 @@ def fsi_run(tmp_path_factory, repo_root):
 
 def test_moving_mesh_in_fields_follows_point_A(fsi_run):
     """The vertex at A in fields.h5 moves by (ux_A, uy_A) of timeseries.csv, step by step (to 1e-12)."""
-    from cosserat_fsi.plots import Fields
+    from cosserat_fsi.app.plots import Fields
 
     fields = Fields(fsi_run)
     ts = read_timeseries(fsi_run / "timeseries.csv")
@@ -42,7 +42,7 @@ def test_moving_mesh_in_fields_follows_point_A(fsi_run):
 def test_plot_writes_time_series_and_snapshots(fsi_run, tmp_path):
     import matplotlib.image as mpimg
 
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", "plot", str(fsi_run), "--out",
+    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "plot", str(fsi_run), "--out",
                            str(tmp_path), "--time", "0.02", "--time", "0.06"], capture_output=True, text=True,
                           timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -55,7 +55,7 @@ def test_plot_writes_time_series_and_snapshots(fsi_run, tmp_path):
 
 
 def test_plot_of_a_folder_that_is_not_a_run_exits_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", "plot", str(tmp_path / "nope")],
+    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "plot", str(tmp_path / "nope")],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "RUN_DIR" in proc.stderr, proc.stderr
     assert "Traceback" not in proc.stderr

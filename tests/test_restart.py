@@ -19,7 +19,7 @@ from mpi4py import MPI
 
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.io import read_timeseries
-from cosserat_fsi.runner import run_scene
+from cosserat_fsi.app.runner import run_scene
 
 ST = {"geometry": {"name": "schaefer_turek", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.001},
       "inflow": {"u_mean": 1.0, "ramp_time": 0.2},
@@ -83,7 +83,7 @@ def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
 
 
 def _cli(*args, timeout=300):
-    return subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", *map(str, args)], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "cosserat_fsi", *map(str, args)], capture_output=True,
                           text=True, timeout=timeout)
 
 
@@ -99,7 +99,7 @@ def _config(tmp_path, raw=ST, **time):
 def test_sigterm_writes_a_checkpoint_and_the_restart_completes(tmp_path):
     config = _config(tmp_path, t_end=40.0)  # 800 steps: the signal arrives mid-run
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi.cli", "run", str(config), "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi", "run", str(config), "--out", str(out),
                              "--no-progress"], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     csv = out / "timeseries.csv"
     deadline = time.time() + 120
@@ -186,7 +186,7 @@ def test_kill_9_leaves_readable_output(tmp_path, repo_root, delay):
     import h5py
 
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi.cli", "run", str(_config(tmp_path, t_end=20.0)),
+    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi", "run", str(_config(tmp_path, t_end=20.0)),
                              "--out", str(out), "--no-progress", "--set", "output.every=1"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     csv = out / "timeseries.csv"

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from cosserat_fsi.study import pareto
+from cosserat_fsi.app.study import pareto
 
 REPO_CONFIG = "configs/schaefer_turek_2d1.yaml"
 
@@ -21,7 +21,7 @@ def _study(tmp_path, text):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "cosserat_fsi.cli", *map(str, args)], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "cosserat_fsi", *map(str, args)], capture_output=True,
                           text=True, timeout=600)
 
 

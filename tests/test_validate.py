@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from cosserat_fsi.validate import CFD3, Case, cheapest, previous_rows, table
+from validate import CFD3, Case, cheapest, previous_rows, table
 
 ROW = ("| cfd3-L1-c2-dt0.001 | L1 (2,723) | BDF2 | 0.001 | {key} | 1 | 1 | +0.10% | 1.0% | {ok} | 1186 | 0.148 |")
 

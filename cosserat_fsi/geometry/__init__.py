@@ -5,7 +5,7 @@ gmsh (on the calling process only) when the file is not cached yet. Level L halv
 level L-1 (about 4x the vertices); ``"seed"`` (turek_hron only) matches the seed paper's mesh size.
 Importing this package imports neither gmsh nor dolfinx.
 
-Tags (``_gmsh.CELL_TAGS`` / ``_gmsh.FACET_TAGS``; each geometry's ``describe`` lists the ones it uses):
+Tags (cosserat_fsi/tags.py: ``CELL_TAGS`` / ``FACET_TAGS``; each geometry's ``describe`` lists the ones it uses):
 
 cells: fluid 1, solid 2 (turek_hron with flag: solid, flag (all cells), box (the disk)).
 facets: inlet 1 (x = 0), outlet 2 (x = L), walls 3 (y = 0 and y = H; square: left, right, bottom; box: all four

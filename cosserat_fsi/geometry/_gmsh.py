@@ -5,8 +5,7 @@ Every function here expects the ``gmsh`` module as first argument: the builders 
 
 import math
 
-CELL_TAGS = {"fluid": 1, "solid": 2}
-FACET_TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6, "clamp": 7}
+from ..tags import CELL_TAGS, FACET_TAGS
 
 _EPS = 1e-8
 

@@ -12,6 +12,7 @@ Vertex counts (defaults, gmsh 4.8; 4.15 differs by < 0.4 %), L0 / L1 / L2 / L3: 
 import math
 
 from .. import errors
+from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 
 LEVELS = (0, 1, 2, 3, 4, 5, 6)
@@ -33,8 +34,8 @@ def validate(params):
 def describe(params):
     """Tags, named points and dimensions of the geometry."""
     return {
-        "cell_tags": {k: _gmsh.CELL_TAGS[k] for k in ("fluid", "solid")},
-        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("walls", "interface")},
+        "cell_tags": {k: CELL_TAGS[k] for k in ("fluid", "solid")},
+        "facet_tags": {k: FACET_TAGS[k] for k in ("walls", "interface")},
         "points": {"centre": CENTRE},
         "length": SIZE,
         "height": SIZE,

@@ -5,6 +5,7 @@ level; along the channel round(8 * length / height) (at least 1) times the same 
 L0: 81 vertices (8x8), L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
+from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 
 LEVELS = (0, 1, 2, 3, 4, 5, 6)
@@ -15,8 +16,8 @@ CHOICES = {}
 def describe(params):
     """Tags and dimensions of the geometry."""
     return {
-        "cell_tags": {"fluid": _gmsh.CELL_TAGS["fluid"]},
-        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("inlet", "outlet", "walls")},
+        "cell_tags": {"fluid": CELL_TAGS["fluid"]},
+        "facet_tags": {k: FACET_TAGS[k] for k in ("inlet", "outlet", "walls")},
         "points": {},
         "length": params["length"],
         "height": params["height"],

@@ -9,6 +9,7 @@ per level; along the flag max(1, round(4 * length / thickness)) times the same f
 square 0.005 x 0.005 cells). Defaults: L0 355 vertices (71x5), L1 1,269 (141x9), L2 4,777 (281x17), ...
 """
 
+from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 
 LEVELS = (0, 1, 2, 3, 4, 5, 6)
@@ -20,8 +21,8 @@ def describe(params):
     """Tags, named points and dimensions of the geometry."""
     length, thickness = params["length"], params["thickness"]
     return {
-        "cell_tags": {"solid": _gmsh.CELL_TAGS["solid"]},
-        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("interface", "clamp")},
+        "cell_tags": {"solid": CELL_TAGS["solid"]},
+        "facet_tags": {k: FACET_TAGS[k] for k in ("interface", "clamp")},
         "points": {"A": (length, thickness / 2)},
         "length": length,
         "height": thickness,

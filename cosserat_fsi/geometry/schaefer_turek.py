@@ -7,6 +7,7 @@ cylinder, h = 0.01 on it growing to 0.06 at distance 0.3, both halved per level.
 Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %): L0 687, L1 2,517, L2 9,700, L3 38,064.
 """
 
+from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 
 LEVELS = (0, 1, 2, 3, 4, 5, 6)
@@ -20,8 +21,8 @@ H_MIN, H_MAX, DIST_MAX = 0.01, 0.06, 0.3
 def describe(params):
     """Tags, named points and dimensions of the geometry."""
     return {
-        "cell_tags": {"fluid": _gmsh.CELL_TAGS["fluid"]},
-        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("inlet", "outlet", "walls", "cylinder")},
+        "cell_tags": {"fluid": CELL_TAGS["fluid"]},
+        "facet_tags": {k: FACET_TAGS[k] for k in ("inlet", "outlet", "walls", "cylinder")},
         "points": {"a1": (CENTRE[0] - RADIUS, CENTRE[1]), "a2": (CENTRE[0] + RADIUS, CENTRE[1])},
         "length": LENGTH,
         "height": HEIGHT,

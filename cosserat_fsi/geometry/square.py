@@ -4,6 +4,7 @@ Structured (transfinite) triangles, "Left" diagonals, 8x8 divisions at level 0, 
 L0: 81 vertices, L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
+from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 
 LEVELS = (0, 1, 2, 3, 4, 5, 6)
@@ -15,8 +16,8 @@ def describe(params):
     """Tags, named points and dimensions of the geometry."""
     size = params["size"]
     return {
-        "cell_tags": {"fluid": _gmsh.CELL_TAGS["fluid"]},
-        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("walls", "lid")},
+        "cell_tags": {"fluid": CELL_TAGS["fluid"]},
+        "facet_tags": {k: FACET_TAGS[k] for k in ("walls", "lid")},
         "points": {"centre": (size / 2, size / 2)},
         "length": size,
         "height": size,

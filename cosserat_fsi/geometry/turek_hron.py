@@ -13,6 +13,7 @@ solid flag 784 / 2,843 / 10,916 / 42,416 / 2,179 (seed paper: 2,199); rigid 758 
 
 import math
 
+from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 
 LEVELS = (0, 1, 2, 3, 4, 5, 6, "seed")
@@ -30,8 +31,8 @@ def describe(params):
     """Tags, named points and dimensions of the geometry."""
     cells = ["fluid", "solid"] if params["flag"] == "solid" else ["fluid"]
     return {
-        "cell_tags": {k: _gmsh.CELL_TAGS[k] for k in cells},
-        "facet_tags": {k: _gmsh.FACET_TAGS[k] for k in ("inlet", "outlet", "walls", "cylinder", "interface")},
+        "cell_tags": {k: CELL_TAGS[k] for k in cells},
+        "facet_tags": {k: FACET_TAGS[k] for k in ("inlet", "outlet", "walls", "cylinder", "interface")},
         "points": {"A": (FLAG_END, CENTRE[1]), "B": (CENTRE[0] - RADIUS, CENTRE[1])},
         "length": LENGTH,
         "height": HEIGHT,

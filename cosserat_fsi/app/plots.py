@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 GROUPS = {  # file stem -> (columns, y label)
     "tip": (("ux_A", "uy_A"), "displacement of A (m)"),
@@ -61,7 +61,7 @@ def _reference(run_dir: Path) -> dict:
         return {}
     if not name:
         return {}
-    from .references import reference_for
+    from ..references import reference_for
 
     return reference_for(name) or {}
 
@@ -73,7 +73,7 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .io import read_timeseries
+    from ..io import read_timeseries
 
     series = read_timeseries(run_dir / "timeseries.csv")
     if "t" not in series or len(series["t"]) == 0:

@@ -32,7 +32,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from .errors import InputError
+from ..errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
 PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_motion", "observables", "output")
@@ -74,7 +74,7 @@ def load_study(path) -> Study:
         if not values:
             raise InputError(f"{path}: ladder.{key}: needs at least one value")
     # every run's scene must validate before anything runs (a bad value costs a second, not an hour)
-    from .config import load_scene
+    from ..config import load_scene
 
     for overrides in _combinations(study):
         try:
@@ -116,7 +116,7 @@ def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tu
         folder.mkdir(parents=True, exist_ok=True)
         # an interrupted run (killed, machine restarted) continues from its last checkpoint
         where = ["--restart", str(folder)] if (folder / "checkpoint" / "meta.json").exists() else ["--out", str(folder)]
-        cmd = [sys.executable, "-m", "cosserat_fsi.cli", "run", str(config), *where, "--no-progress",
+        cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(config), *where, "--no-progress",
                "--set", "output.fields=false"]
         for key, value in overrides.items():
             cmd += ["--set", f"{key}={_yaml(value)}"]

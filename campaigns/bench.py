@@ -1,8 +1,8 @@
 """Cost of one time step, per phase, on a given scene (benchmark script, not a test).
 
-    python -m cosserat_fsi.bench [--config configs/turek_hron_cfd3.yaml] [--set KEY=VALUE ...]
+    python campaigns/bench.py [--config configs/turek_hron_cfd3.yaml] [--set KEY=VALUE ...]
                                  [--steps 200] [--json docs/perf/NAME.json]
-    mpirun -n 2 python -m cosserat_fsi.bench ...
+    mpirun -n 2 python campaigns/bench.py ...
 
 Reports, per step: backtracking, right-hand side assembly, the solve with the factorisation reused, and,
 for comparison, one fresh MUMPS factorisation + solve of the same matrix (the cost a solver that
@@ -25,10 +25,10 @@ def measure(config: str, overrides: list[str], steps: int) -> dict:
     from mpi4py import MPI
     from petsc4py import PETSc
 
-    from . import compat
-    from .config import load_scene
-    from .runner import load_mesh
-    from .scheme.stepper import Stepper
+    from cosserat_fsi import compat
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.scheme.stepper import Stepper
 
     comm = MPI.COMM_WORLD
     scene = load_scene(config, overrides)
@@ -91,7 +91,7 @@ def report(paths) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.bench", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python campaigns/bench.py", description=__doc__.splitlines()[0])
     parser.add_argument("--config", default=str(ROOT / "configs/turek_hron_cfd3.yaml"))
     parser.add_argument("--set", action="append", default=[])
     parser.add_argument("--steps", type=int, default=200)

@@ -6,7 +6,7 @@ the micro-inertia I, and the two Navier–Stokes limits (μ and μ + μ_r) that 
 the c₁ sweep of figures 5–6 comes from `make sweep-c1`. Snapshots are drawn with matplotlib from
 fields.h5 (deformed mesh of that step), so no display or OpenGL is needed.
 
-    python -m cosserat_fsi.seed_figures [--jobs 2] [--out docs] [--report-only]
+    python campaigns/seed_figures.py [--jobs 2] [--out docs] [--report-only]
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import Fields
-from .validate import C1_VALUES, ROOT, Case, _save, run_case
+from cosserat_fsi.app.plots import Fields
+from validate import C1_VALUES, ROOT, Case, _save, run_case
 
 CLASSICAL = "configs/seed_fsi3.yaml"
 COSSERAT = "configs/seed_cosserat_fsi3.yaml"
@@ -47,7 +47,7 @@ LEGEND = {i: label for i, _, _, label in RUNS}
 
 
 def _series(runs: Path, case_id: str):
-    from .io import read_timeseries
+    from cosserat_fsi.io import read_timeseries
 
     path = runs / case_id / "timeseries.csv"
     return read_timeseries(path) if (runs / case_id / "summary.json").exists() else None
@@ -239,7 +239,7 @@ def write_report(runs: Path, out: Path) -> Path:
             c1_rows.append(f"| {c1:.3g} | {tip['status']} | {_fmt(tip['amp'] and 1e3 * tip['amp'], '.2f')} | "
                            f"{_fmt(tip['freq'], '.3f')} |")
     lines = ["# The seed's figures, reproduced", "",
-             "Written by `make figures` (`python -m cosserat_fsi.seed_figures`) from runs of "
+             "Written by `make figures` (`python campaigns/seed_figures.py`) from runs of "
              "`configs/seed_fsi3.yaml` (classical) and `configs/seed_cosserat_fsi3.yaml` (Cosserat) at the "
              "seed's settings: its mesh (2,179 vertices with the flag), first-order characteristics, "
              "δt = 0.005, c₁ = 10⁶ (μ_s = 2·10⁶), ρ_s = ρ_f = 1000, μ = 1, Ū = 2, t ∈ [0, 8]. "
@@ -342,7 +342,7 @@ def _peak_note(amps) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.seed_figures", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python campaigns/seed_figures.py", description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", default=str(ROOT / "docs"))
     parser.add_argument("--report-only", action="store_true")

@@ -6,7 +6,7 @@ energy (the total energy never exceeds 100 × the kinetic energy of the mean inf
 channel) or stops with exit code 3 and a `diverged:` message — never a silent NaN. The table goes into
 docs/extremes.md; finished cases are not run again.
 
-    python -m cosserat_fsi.extremes [--jobs 2] [--only PATTERN] [--out docs]
+    python campaigns/extremes.py [--jobs 2] [--only PATTERN] [--out docs]
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def run_case(case_id: str, runs: Path, python: str, extra: dict | None = None) -
     args = []
     for key, value in {**BASE, **CASES[case_id][1], **(extra or {})}.items():
         args += ["--set", f"{key}={value}"]
-    cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / CONFIG), "--out", str(out), "--no-progress", *args]
+    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / CONFIG), "--out", str(out), "--no-progress", *args]
     with open(out / "stdout.log", "w") as log:
         proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
     (out / "exit_code").write_text(f"{proc.returncode}\n")
@@ -81,7 +81,7 @@ def run_case(case_id: str, runs: Path, python: str, extra: dict | None = None) -
 
 def verdict(out: Path) -> dict:
     """What happened in a finished case folder: status, exit code, energy, message, pass/fail."""
-    from .io import read_timeseries
+    from cosserat_fsi.io import read_timeseries
 
     code = int((out / "exit_code").read_text()) if (out / "exit_code").exists() else None
     summary = json.loads((out / "summary.json").read_text()) if (out / "summary.json").exists() else {}
@@ -115,7 +115,7 @@ def write_report(runs: Path, out: Path) -> Path:
                     f"{1e3 * v['uy_max']:.3g} | {v['per_step'] or 0:.3f} | {'yes' if v['ok'] else '**no**'} | "
                     f"{WHY.get(case_id, '')} |")
     lines = ["# Extremes", "",
-             "Written by `make extremes` (`python -m cosserat_fsi.extremes`). Each case is "
+             "Written by `make extremes` (`python campaigns/extremes.py`). Each case is "
              f"`{CONFIG}` on the coarsest mesh with `{' '.join(f'{k}={v}' for k, v in BASE.items())}` and one "
              "parameter pushed to an extreme. *ok* means: completed with finite energy below "
              f"{ENERGY_BOUND:g} × ½ ρ_f Ū² |channel| (the scale column divides by that), or stopped with exit "
@@ -126,7 +126,7 @@ def write_report(runs: Path, out: Path) -> Path:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.extremes", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python campaigns/extremes.py", description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--only", default="*")
     parser.add_argument("--out", default=str(ROOT / "docs"))

@@ -4,7 +4,7 @@ Each case is a config of configs/ plus `--set` overrides, run as its own `cosser
 (several at once with ``--jobs``). A finished case (its summary.json matches the resolved config) is not
 run again, so an interrupted validation resumes. Tolerances are the issue's acceptance criteria.
 
-    python -m cosserat_fsi.validate [--jobs 2] [--only PATTERN] [--out docs]
+    python campaigns/validate.py [--jobs 2] [--only PATTERN] [--out docs]
 """
 
 from __future__ import annotations
@@ -139,7 +139,7 @@ def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
     if summary.exists():
         done = json.loads(summary.read_text())
         if done.get("status") == "completed":
-            from .config import load_scene
+            from cosserat_fsi.config import load_scene
 
             scene = load_scene(ROOT / case.config, [a for a in case.args() if a != "--set"])
             if done["time"]["t_final"] >= scene.time.t_end - 0.5 * scene.time.dt:
@@ -149,7 +149,7 @@ def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
     elif (out / "checkpoint" / "meta.json").exists():  # interrupted (killed, machine restarted): resume
         restart = ["--restart", str(out)]
     out.mkdir(parents=True, exist_ok=True)
-    cmd = [python, "-m", "cosserat_fsi.cli", "run", str(ROOT / case.config), *(restart or ["--out", str(out)]),
+    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / case.config), *(restart or ["--out", str(out)]),
            "--no-progress", "--set", f"output.fields={str(fields).lower()}", *case.args()]
     with open(out / "stdout.log", "w") as log:
         subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
@@ -251,8 +251,8 @@ def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .io import read_timeseries
-    from .references import reference_for
+    from cosserat_fsi.io import read_timeseries
+    from cosserat_fsi.references import reference_for
 
     ref = reference_for("turek_hron_cfd3")["lift"]
     fig, ax = plt.subplots(figsize=(9, 4))
@@ -283,8 +283,8 @@ def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .io import read_timeseries
-    from .references import reference_for
+    from cosserat_fsi.io import read_timeseries
+    from cosserat_fsi.references import reference_for
 
     series = [(c.id, runs / c.id / "timeseries.csv") for c in cases if c.id.startswith(prefix)]
     series = [(i, p) for i, p in series if (p.parent / "summary.json").exists()]
@@ -315,8 +315,8 @@ def plot_c1_sweep(runs: Path, out: Path) -> str | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .analysis import periodic_analysis
-    from .io import read_timeseries
+    from cosserat_fsi.analysis import periodic_analysis
+    from cosserat_fsi.io import read_timeseries
 
     done = [(c1, runs / f"c1sweep-{c1:.3g}" / "timeseries.csv") for c1 in C1_VALUES]
     done = [(c1, p) for c1, p in done if (p.parent / "summary.json").exists()]
@@ -348,7 +348,7 @@ def write_report(cases, runs: Path, out: Path) -> Path:
     lines = [
         "# Validation",
         "",
-        "Written by `make validate` (`python -m cosserat_fsi.validate`): every number below is measured, on",
+        "Written by `make validate` (`python campaigns/validate.py`): every number below is measured, on",
         "the Debian stack (dolfinx 0.5.2), serial, on a 2-core machine (two cases run at a time).",
         "References: shared/reference/benchmarks.yaml (Schäfer & Turek 1996; Turek & Hron 2006).",
         "Errors are relative; for periodic observables, mean / amplitude are (max ± min)/2 over the last",
@@ -378,7 +378,7 @@ def write_report(cases, runs: Path, out: Path) -> Path:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosserat_fsi.validate", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python campaigns/validate.py", description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--only", default="*", help="glob over case ids")
     parser.add_argument("--out", default=str(ROOT / "docs"))

@@ -17,17 +17,17 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from . import __version__, compat
-from .analysis import periodic_analysis, relative_error
-from .config import dump_resolved
-from .errors import DivergenceError, Interrupted
-from .exact import EXACT_BENCHMARKS, exact_for
-from .geometry import build_msh
-from .io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
-from .io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
-from .observables import Observables, schaefer_turek_coefficients
-from .references import reference_for
-from .scheme.stepper import Stepper
+from .. import __version__, compat
+from ..analysis import periodic_analysis, relative_error
+from ..config import dump_resolved
+from ..errors import DivergenceError, Interrupted
+from ..exact import EXACT_BENCHMARKS, exact_for
+from ..geometry import build_msh
+from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
+from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
+from ..observables import Observables, schaefer_turek_coefficients
+from ..references import reference_for
+from ..scheme.stepper import Stepper
 
 log = logging.getLogger("cosserat_fsi")
 
