@@ -15,6 +15,10 @@ try:  # the PyPI wheel must be bootstrapped before dolfinx is imported
     import dolfinx_solver  # noqa: F401
 except ImportError:
     pass
+else:
+    # h5py's wheel bundles its own HDF5: it must load before PETSc's (dolfinx.fem.petsc), or h5py fails
+    # on import with "ValueError: Not a datatype" (h5py 3.16 / dolfinx-solver-real 0.11.0.post0)
+    import h5py  # noqa: F401
 
 import numpy as np
 import ufl

@@ -10,6 +10,7 @@ import numpy as np
 from mpi4py import MPI
 
 from . import compat
+from .physics import fluid
 from .physics.stress import body_traction, cauchy_stress
 from .exact import EXACT_BENCHMARKS
 from .scheme.characteristics import probe
@@ -183,21 +184,20 @@ def _body_test_functions(stepper, body_tags):
 
 
 def _momentum_residual(stepper, u, T, dx):
-    """φ ↦ ∫ ρ (α u^{n+1} − α h)/δt·φ + T:∇φ − f·φ dx: the momentum residual of the step just taken.
+    """φ ↦ the momentum residual (eq. 20 stress form) of the step just taken, with the scheme's acceleration.
 
     With φ = e_i on the body and 0 elsewhere it equals ∫_body T n·e_i ds (n out of the fluid), so
     −residual(φ_i) is the force on the body: the variational ("residual") drag and lift, which converge
     faster than the surface integral of T n.
     """
-    rho, inv_dt, alpha = stepper.rho, stepper.inv_dt, stepper.alpha
+    if dx.subdomain_id() != "everywhere":  # restricted to the fluid cells
+        dxi = stepper.dx_inertia(subdomain_data=stepper.cell_tags)(dx.subdomain_id())
+    else:
+        dxi = stepper.dx_inertia
 
     def residual(phi):
-        inertia = rho * inv_dt * ufl.inner(alpha * u - stepper.u_hist, phi)
-        if dx.subdomain_id() != "everywhere":  # restricted to the fluid cells
-            dxi = stepper.dx_inertia(subdomain_data=stepper.cell_tags)(dx.subdomain_id())
-        else:
-            dxi = stepper.dx_inertia
-        return inertia * dxi + (ufl.inner(T, ufl.grad(phi)) - ufl.inner(stepper.f, phi)) * dx
+        return fluid.cauchy_momentum_residual(T, phi, rho=stepper.rho, acceleration=stepper.acceleration(u),
+                                              body_force=stepper.f, dx=dx, dx_inertia=dxi)
 
     return residual
 

@@ -21,6 +21,16 @@ def curl_vector(u):
     return u[1].dx(0) - u[0].dx(1)
 
 
+def curl(f):
+    """curl of a 2D field: the vector curl of a scalar ω (= ω e_z), the scalar curl of an in-plane vector;
+    ``ufl.curl`` in 3D."""
+    if ufl.shape(f) == ():
+        return curl_scalar(f)
+    if ufl.shape(f) == (2,):
+        return curl_vector(f)
+    return ufl.curl(f)
+
+
 def spin(omega):
     """The tensor [[0, ω], [−ω, 0]] (= −ε·ω of seed eq. 20 in 2D)."""
     return ufl.as_matrix(((0, omega), (-omega, 0)))

@@ -23,15 +23,17 @@ def strain_measure(d):
     return D(d) - G.T * G
 
 
-def mooney_rivlin(u, v, d, *, mu_s, dt, dx_solid):
-    """Linearised solid terms of seed eq. (31): returns (a, L).
+def linearised_stress_residual(u, v, d_star, *, mu_s, dt, dx_solid) -> ufl.Form:
+    """The solid terms of seed eq. (31) with the seed's linearisation (28) around d* (``d_star``), tested
+    with ũ = ``v``; ``dt`` is the δt of d^{n+1} = d* + δt u^{n+1} (δt/α for BDF2):
 
-    a = ½ μ_s δt (Du − HᵀG − GᵀH) : Dũ,   L = −½ μ_s (Dd − GᵀG) : Dũ   (on the solid cells).
+    ½ μ_s ∫_s [Dd* − G*ᵀG* + δt (Du − HᵀG* − G*ᵀH)] : Dũ,   G* = ∇d*, H = ∇u.
+
+    Linear in u: the scheme's only solid term today; a consistent (Newton) linearisation of
+    :func:`strain_measure` (d* + δt u) would sit beside it.
     """
-    G, H = ufl.grad(d), ufl.grad(u)
-    a = 0.5 * mu_s * dt * ufl.inner(D(u) - H.T * G - G.T * H, D(v)) * dx_solid
-    L = -0.5 * mu_s * ufl.inner(strain_measure(d), D(v)) * dx_solid
-    return a, L
+    G, H = ufl.grad(d_star), ufl.grad(u)
+    return 0.5 * mu_s * ufl.inner(strain_measure(d_star) + dt * (D(u) - H.T * G - G.T * H), D(v)) * dx_solid
 
 
 def elastic_energy_density(d, mu_s):
@@ -44,14 +46,14 @@ def elastic_energy_density(d, mu_s):
     return 0.5 * mu_s * (ufl.tr(F * F.T) - 2 - 2 * ufl.ln(ufl.det(F)))
 
 
-def volume_correction(q, d, *, dt, dx_solid):
+def volume_correction_residual(q, d, *, dt, dx_solid) -> ufl.Form:
     """Right-hand side that turns the solid's continuity equation into div u^{n+1} = −ln J^n / δt.
 
     The seed's update x^{n+1} = x^n + δt u^{n+1} with div u^{n+1} = 0 changes areas by O(δt² det ∇u) per
     step (a rigid rotation inflates), a drift the incompressible law cannot see because a dilation only
     moves the pressure. Asking the next velocity to undo the accumulated J^n = det F^n ≠ 1 removes it;
     it vanishes when J^n = 1, so the scheme is unchanged for a motion it integrates exactly.
-    With the momentum system's −(q, div u): L = (q, ln J^n / δt)_s, F = (I − grad d)⁻¹.
+    With the continuity residual's −(q, div u): the residual term −(q, ln J^n / δt)_s, F = (I − grad d)⁻¹.
     """
-    J = 1.0 / ufl.det(ufl.Identity(2) - ufl.grad(d))
-    return q * ufl.ln(J) / dt * dx_solid
+    J = 1.0 / ufl.det(ufl.Identity(len(d)) - ufl.grad(d))
+    return -q * ufl.ln(J) / dt * dx_solid

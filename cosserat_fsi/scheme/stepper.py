@@ -16,9 +16,9 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import DivergenceError, InputError
-from ..physics import fluid, solid
 from .characteristics import Characteristics, PointLocator, evaluate
 from .mesh_motion import MeshMotion, PrescribedMotion
+from .problem import Model, Problem, ramp
 from .spaces import mixed_space
 
 import dolfinx
@@ -32,36 +32,6 @@ MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 
 TAGS = {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5, "lid": 6, "clamp": 7}
 FLUID, SOLID = 1, 2  # cell tags
-
-
-@dataclass(frozen=True)
-class Model:
-    """Which fields and terms a scene needs ("model only what the scene requires")."""
-
-    micro_rotation: bool
-    solid: bool
-    moving_mesh: bool
-
-    @classmethod
-    def from_scene(cls, scene):
-        solid = bool(scene.has_solid)
-        return cls(micro_rotation=bool(scene.has_micropolar), solid=solid, moving_mesh=solid)
-
-    def describe(self) -> str:
-        fields = ["velocity (P2)"] + (["micro-rotation (P2)"] if self.micro_rotation else []) + ["pressure (P1)"]
-        parts = ["fields: " + ", ".join(fields)]
-        if not self.micro_rotation:
-            parts.append("no micro-rotation (mu_r = lambda1 = lambda2 = 0)")
-        parts.append("solid terms" if self.solid else "no solid terms")
-        parts.append("moving mesh" if self.moving_mesh else "fixed mesh")
-        return "; ".join(parts)
-
-
-def ramp(t: float, ramp_time: float) -> float:
-    """Turek–Hron inflow ramp (1 − cos(π t / T))/2 for t < T, then 1."""
-    if ramp_time <= 0 or t >= ramp_time:
-        return 1.0
-    return 0.5 * (1.0 - np.cos(np.pi * t / ramp_time))
 
 
 @dataclass
@@ -151,6 +121,7 @@ class Stepper:
             self._history_locators = (self.chars.locator, self.chars.locator)
             self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
 
+        self.problem = Problem(scene, mesh, cell_tags, facet_tags, self.space, exact)
         self._constants()
         self._forms()
         self._boundary_conditions()
@@ -167,89 +138,33 @@ class Stepper:
         return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
 
     def cellwise(self, fluid_value, solid_value, shape=()):
-        """A DG0 field: ``fluid_value`` on fluid cells, ``solid_value`` on solid cells."""
-        Q = compat.function_space(self.mesh, "DG", 0, shape=shape or None)
-        field = dolfinx.fem.Function(Q)
-        values = field.x.array.reshape(-1, int(np.prod(shape)) if shape else 1)
-        dofs = compat.cell_dofs(Q)[:, 0]
-        tags = np.full(len(dofs), FLUID)
-        ct = self.cell_tags
-        inside = ct.indices < len(dofs)
-        tags[ct.indices[inside]] = ct.values[inside]
-        values[dofs[tags == FLUID]] = fluid_value
-        values[dofs[tags == SOLID]] = solid_value
-        field.x.scatter_forward()
-        return field
+        return self.problem.cellwise(fluid_value, solid_value, shape)
 
     def _constants(self):
-        s = self.scene
+        pr = self.problem
         self.alpha = self._const(1.0)
         self.inv_dt = self._const(1.0 / self.dt)
-        rho_f = s.fluid.rho if s.fluid is not None else 0.0
-        self.mu = self._const(s.fluid.mu if s.fluid is not None else 0.0)
-        body = np.asarray(s.fluid.body_force if s.fluid is not None else (0.0, 0.0), dtype=PETSc.ScalarType)
+        self.rho, self.mu, self.f = pr.rho, pr.mu, pr.body_force
         if self.model.solid:
-            self.rho = self.cellwise(rho_f, s.solid.rho)
-            self.f = self.cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
-            if s.solid.gravity and s.solid.gravity_ramp_time > 0:
-                fluid_part = self.cellwise(body, (0.0, 0.0), shape=(2,)).x.array.copy()
-                full = self.f.x.array.copy()
-                ramp_time = s.solid.gravity_ramp_time
-                self._gravity_update = lambda t: self.f.x.array.__setitem__(
-                    slice(None), fluid_part + ramp(t, ramp_time) * (full - fluid_part))
-            self.mu_s = self._const(s.solid.mu_s)
+            self.mu_s = pr.mu_s
             self.solid_dt = self._const(self.dt)  # δt/α
-        else:
-            self.rho = self._const(rho_f)
-            self.f = dolfinx.fem.Constant(self.mesh, body)
-        self.viscous_form = s.fluid.viscous_form if s.fluid is not None else "laplacian"
-        self.penalty = self._const(s.solver.penalty)
         if self.model.micro_rotation:
-            m = s.micropolar
-            self.mu_r = self._const(m.mu_r)
-            self.lambda1 = self._const(m.lambda1)
-            self.inertia = self._const(m.inertia)
-            self.g = self._const(m.body_couple)
-        self._source_updates = [self._gravity_update] if hasattr(self, "_gravity_update") else []
-        if self.exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
-            for name, attr, space in (("body_force", "f", "velocity"), ("body_couple", "g", "micro_rotation")):
-                if hasattr(self.exact, name) and (space != "micro_rotation" or self.model.micro_rotation):
-                    field = dolfinx.fem.Function(self.space.space(space))
-                    source = getattr(self.exact, name)
-                    self._source_updates.append(
-                        lambda t, field=field, source=source: field.interpolate(lambda x: source(x, t)))
-                    setattr(self, attr, field)
+            self.mu_r = pr.mu_r
+
+    def acceleration(self, u):
+        """(α u − α h)/δt: the characteristics scheme's material acceleration of u (α h = ``u_hist``)."""
+        return (self.alpha * u - self.u_hist) * self.inv_dt
 
     def _forms(self):
-        sp = self.space
-        trial, test = ufl.TrialFunctions(sp.W), ufl.TestFunctions(sp.W)
-        i_u, i_p = sp.index("velocity"), sp.index("pressure")
-        dx = ufl.dx(domain=self.mesh)
-        a, L = fluid.navier_stokes(trial[i_u], trial[i_p], test[i_u], test[i_p], rho=self.rho, mu=self.mu,
-                                   inv_dt=self.inv_dt, alpha=self.alpha, history=self.u_hist,
-                                   body_force=self.f, penalty=self.penalty, dx=dx,
-                                   viscous_form=self.viscous_form, dx_inertia=self.dx_inertia)
-        if self.model.micro_rotation:
-            i_w = sp.index("micro_rotation")
-            a_m, L_m = fluid.micropolar(trial[i_u], trial[i_w], test[i_u], test[i_w], rho=self.rho,
-                                        mu_r=self.mu_r, lambda1=self.lambda1, inertia=self.inertia,
-                                        inv_dt=self.inv_dt, alpha=self.alpha, history=self.omega_hist,
-                                        body_couple=self.g, dx=dx,
-                                        viscous_form=self.viscous_form, dx_inertia=self.dx_inertia)
-            a, L = a + a_m, L + L_m
-            if self.scene.micropolar.wall_condition == "half_curl":
-                ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
-                walls = tuple(TAGS[name] for name in self._half_curl_walls())
-                a = a + fluid.half_curl_wall(trial[i_u], trial[i_w], test[i_w], lambda1=self.lambda1, ds=ds(walls),
-                                             mesh=self.mesh)
+        pr = self.problem
+        trial, test = ufl.TrialFunctions(pr.space.W), ufl.TestFunctions(pr.space.W)
+        u, _, omega = pr.split(trial)
+        micro = (self.alpha * omega - self.omega_hist) * self.inv_dt if omega is not None else None
+        F = pr.residual(trial, test, acceleration=self.acceleration(u), micro_acceleration=micro,
+                        dx_inertia=self.dx_inertia)
         if self.model.solid:
-            dx_solid = ufl.dx(domain=self.mesh, subdomain_data=self.cell_tags)(SOLID)
-            a_s, L_s = solid.mooney_rivlin(trial[i_u], test[i_u], self.d_star, mu_s=self.mu_s, dt=self.solid_dt,
-                                           dx_solid=dx_solid)
-            a, L = a + a_s, L + L_s
-            if self.scene.solid.volume_correction:
-                L = L + solid.volume_correction(test[i_p], self.d_star, dt=self.solid_dt, dx_solid=dx_solid)
-        self.a_form, self.L_form = compat.form(a), compat.form(L)
+            F = F + pr.solid_residual(trial, test, self.d_star, self.solid_dt)
+        self.a_form, self.L_form = compat.form(ufl.lhs(F)), compat.form(ufl.rhs(F))
 
     def facets(self, *names):
         ft = self.facet_tags
@@ -521,8 +436,9 @@ class Stepper:
             d_star[:] = self.d_n.x.array if alpha == 1.0 else (4.0 * self.d_n.x.array - self.d_nm1.x.array) / 3.0
         self._matrix(alpha)
         t_new = (self.step_count + 1) * self.dt
-        for update in self._updates + self._source_updates:
+        for update in self._updates:
             update(t_new)
+        self.problem.update_sources(t_new)
         with self.timers("backtrack"):
             self._histories(alpha)
         with self.timers("assemble_vector"):

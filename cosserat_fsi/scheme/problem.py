@@ -1,0 +1,208 @@
+"""The problem of one scene, time-continuous: its fields, coefficients and the residual of seed eqs. (31)–(32).
+
+``Problem`` knows *what* is solved (which fields and terms the scene needs, ρ/μ/f per cell, manufactured
+sources) but not *how* time is discretised: :meth:`Problem.residual` takes the material accelerations as UFL
+expressions. The characteristics scheme (``scheme/step.py``) passes (α u − α h)/δt with trial functions and
+splits the form; a steady solver passes grad(u) u with a Function and differentiates it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .. import compat
+from ..physics import fluid, solid
+from ..tags import FACET_TAGS, FLUID, SOLID
+from .spaces import MixedSpace, mixed_space
+
+import dolfinx
+import ufl
+from petsc4py import PETSc
+
+
+@dataclass(frozen=True)
+class Model:
+    """Which fields and terms a scene needs ("model only what the scene requires")."""
+
+    micro_rotation: bool
+    solid: bool
+    moving_mesh: bool
+
+    @classmethod
+    def from_scene(cls, scene) -> "Model":
+        solid = bool(scene.has_solid)
+        return cls(micro_rotation=bool(scene.has_micropolar), solid=solid, moving_mesh=solid)
+
+    def describe(self) -> str:
+        fields = ["velocity (P2)"] + (["micro-rotation (P2)"] if self.micro_rotation else []) + ["pressure (P1)"]
+        parts = ["fields: " + ", ".join(fields)]
+        if not self.micro_rotation:
+            parts.append("no micro-rotation (mu_r = lambda1 = lambda2 = 0)")
+        parts.append("solid terms" if self.solid else "no solid terms")
+        parts.append("moving mesh" if self.moving_mesh else "fixed mesh")
+        return "; ".join(parts)
+
+
+def ramp(t: float, ramp_time: float) -> float:
+    """Turek–Hron inflow ramp (1 − cos(π t / T))/2 for t < T, then 1."""
+    if ramp_time <= 0 or t >= ramp_time:
+        return 1.0
+    return 0.5 * (1.0 - np.cos(np.pi * t / ramp_time))
+
+
+class Problem:
+    """Fields, coefficients and residual forms of one scene on one mesh.
+
+    Coefficients (UFL-ready, fixed for the run unless a source is time dependent): ``rho``, ``mu``,
+    ``body_force`` (f), ``penalty`` (ζ), ``viscous_form``; with micro-rotation ``mu_r``, ``lambda1``,
+    ``inertia`` (I), ``body_couple`` (g); with a solid ``mu_s``; the others are None. ρ and f are DG0 fields
+    (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
+    """
+
+    def __init__(self, scene, mesh, cell_tags, facet_tags, space: MixedSpace | None = None, exact=None):
+        """``exact``: optional manufactured solution; its ``body_force(x, t)`` / ``body_couple(x, t)``,
+        when present, replace f and g."""
+        self.scene, self.mesh = scene, mesh
+        self.cell_tags, self.facet_tags = cell_tags, facet_tags
+        self.model = Model.from_scene(scene)
+        self.space = space if space is not None else mixed_space(mesh, self.model.micro_rotation)
+        self.dx = ufl.dx(domain=mesh)
+        self.dx_solid = ufl.dx(domain=mesh, subdomain_data=cell_tags)(SOLID) if self.model.solid else None
+        self._source_updates: list[Callable[[float], None]] = []
+        self._coefficients(exact)
+
+    # ------------------------------------------------------------------------------ coefficients
+    def constant(self, value) -> dolfinx.fem.Constant:
+        return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
+
+    def cellwise(self, fluid_value, solid_value, shape: tuple = ()) -> dolfinx.fem.Function:
+        """A DG0 field: ``fluid_value`` on fluid cells, ``solid_value`` on solid cells."""
+        Q = compat.function_space(self.mesh, "DG", 0, shape=shape or None)
+        field = dolfinx.fem.Function(Q)
+        values = field.x.array.reshape(-1, int(np.prod(shape)) if shape else 1)
+        dofs = compat.cell_dofs(Q)[:, 0]
+        tags = np.full(len(dofs), FLUID)
+        ct = self.cell_tags
+        inside = ct.indices < len(dofs)
+        tags[ct.indices[inside]] = ct.values[inside]
+        values[dofs[tags == FLUID]] = fluid_value
+        values[dofs[tags == SOLID]] = solid_value
+        field.x.scatter_forward()
+        return field
+
+    def _coefficients(self, exact):
+        s, model = self.scene, self.model
+        rho_f = s.fluid.rho if s.fluid is not None else 0.0
+        self.mu = self.constant(s.fluid.mu if s.fluid is not None else 0.0)
+        body = np.asarray(s.fluid.body_force if s.fluid is not None else (0.0, 0.0), dtype=PETSc.ScalarType)
+        self.mu_s = None
+        if model.solid:
+            self.rho = self.cellwise(rho_f, s.solid.rho)
+            self.body_force = self.cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
+            if s.solid.gravity and s.solid.gravity_ramp_time > 0:
+                fluid_part = self.cellwise(body, (0.0, 0.0), shape=(2,)).x.array.copy()
+                full = self.body_force.x.array.copy()
+                ramp_time, values = s.solid.gravity_ramp_time, self.body_force.x.array
+
+                def gravity(t):
+                    values[:] = fluid_part + ramp(t, ramp_time) * (full - fluid_part)
+
+                self._source_updates.append(gravity)
+            self.mu_s = self.constant(s.solid.mu_s)
+        else:
+            self.rho = self.constant(rho_f)
+            self.body_force = dolfinx.fem.Constant(self.mesh, body)
+        self.viscous_form = s.fluid.viscous_form if s.fluid is not None else "laplacian"
+        self.penalty = self.constant(s.solver.penalty)
+        self.mu_r = self.lambda1 = self.inertia = self.body_couple = None
+        if model.micro_rotation:
+            m = s.micropolar
+            self.mu_r = self.constant(m.mu_r)
+            self.lambda1 = self.constant(m.lambda1)
+            self.inertia = self.constant(m.inertia)
+            self.body_couple = self.constant(m.body_couple)
+        if exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
+            for name, space in (("body_force", "velocity"), ("body_couple", "micro_rotation")):
+                source = getattr(exact, name, None)
+                if source is None or (space == "micro_rotation" and not model.micro_rotation):
+                    continue
+                field = dolfinx.fem.Function(self.space.space(space))
+                self._source_updates.append(
+                    lambda t, field=field, source=source: field.interpolate(lambda x: source(x, t)))
+                setattr(self, name, field)
+
+    def update_sources(self, t: float) -> None:
+        """Set the time-dependent coefficients (gravity ramp, manufactured sources) to time ``t``."""
+        for update in self._source_updates:
+            update(t)
+
+    # -------------------------------------------------------------------------------- boundaries
+    def facets(self, *names: str) -> np.ndarray:
+        """Local indices of the facets tagged with any of ``names`` (tags.FACET_TAGS)."""
+        ft = self.facet_tags
+        return np.unique(ft.indices[np.isin(ft.values, [FACET_TAGS[n] for n in names])]).astype(np.int32)
+
+    def no_slip_boundaries(self) -> tuple:
+        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free)."""
+        return ("walls", "cylinder", "clamp") + (() if self.model.solid else ("interface",))
+
+    def half_curl_walls(self) -> tuple:
+        """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl)."""
+        if not self.model.micro_rotation or self.scene.micropolar.wall_condition != "half_curl":
+            return ()
+        return self.no_slip_boundaries() + ("lid",)
+
+    # ------------------------------------------------------------------------------------ forms
+    def split(self, w) -> tuple:
+        """(u, p, ω or None) of a mixed Function, TrialFunction or TestFunction (or their ``ufl.split``)."""
+        parts = w if isinstance(w, (tuple, list)) else ufl.split(w)
+        sp = self.space
+        omega = parts[sp.index("micro_rotation")] if self.model.micro_rotation else None
+        return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
+
+    def residual(self, trial, test, *, acceleration, micro_acceleration=None, dx_inertia=None) -> ufl.Form:
+        """Seed eq. (31) (fluid part, continuity) + eq. (32) + weak wall conditions, as one residual.
+
+        ``trial``/``test``: mixed (Trial)Functions or their splits (see :meth:`split`); ``acceleration``
+        (and ``micro_acceleration`` with micro-rotation) the material derivatives of u (and ω) as UFL
+        expressions; ``dx_inertia`` the measure of the inertia terms (default dx). The solid terms are
+        apart (:meth:`solid_residual`): they depend on how the displacement is discretised.
+        """
+        (u, p, omega), (v, q, tau) = self.split(trial), self.split(test)
+        dx = self.dx
+        F = fluid.momentum_residual(u, p, v, rho=self.rho, acceleration=acceleration, mu=self.mu,
+                                    body_force=self.body_force, dx=dx, viscous_form=self.viscous_form,
+                                    dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r)
+        F = F + fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=dx)
+        if self.model.micro_rotation:
+            F = F + fluid.micro_rotation_residual(u, omega, tau, rho=self.rho, inertia=self.inertia,
+                                                  acceleration=micro_acceleration, mu_r=self.mu_r,
+                                                  lambda1=self.lambda1, body_couple=self.body_couple, dx=dx,
+                                                  dx_inertia=dx_inertia)
+            walls = self.half_curl_walls()
+            if walls:
+                ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
+                F = F + fluid.half_curl_wall(u, omega, tau, lambda1=self.lambda1,
+                                             ds=ds(tuple(FACET_TAGS[name] for name in walls)), mesh=self.mesh)
+        return F
+
+    def solid_residual(self, trial, test, d_star, dt) -> ufl.Form:
+        """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28),
+        plus the volume correction when ``solid.volume_correction``."""
+        (u, _, _), (v, q, _) = self.split(trial), self.split(test)
+        F = solid.linearised_stress_residual(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
+        if self.scene.solid.volume_correction:
+            F = F + solid.volume_correction_residual(q, d_star, dt=dt, dx_solid=self.dx_solid)
+        return F
+
+    def num_dofs(self) -> dict:
+        """Global number of dofs per field and in total."""
+        out = {}
+        for name in self.space.names:
+            V = self.space.space(name)
+            out[name] = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
+        out["total"] = sum(out.values())
+        return out
