@@ -72,7 +72,8 @@ def run_case(case_id: str, runs: Path, python: str, extra: dict | None = None) -
     args = []
     for key, value in {**BASE, **CASES[case_id][1], **(extra or {})}.items():
         args += ["--set", f"{key}={value}"]
-    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / CONFIG), "--out", str(out), "--no-progress", *args]
+    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / CONFIG), "--out", str(out), "--overwrite", "--no-progress",
+           *args]  # --overwrite: an unfinished earlier attempt is replaced
     with open(out / "stdout.log", "w") as log:
         proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
     (out / "exit_code").write_text(f"{proc.returncode}\n")

@@ -149,7 +149,7 @@ def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
     elif (out / "checkpoint" / "meta.json").exists():  # interrupted (killed, machine restarted): resume
         restart = ["--restart", str(out)]
     out.mkdir(parents=True, exist_ok=True)
-    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / case.config), *(restart or ["--out", str(out)]),
+    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / case.config), *(restart or ["--out", str(out), "--overwrite"]),
            "--no-progress", "--set", f"output.fields={str(fields).lower()}", *case.args()]
     with open(out / "stdout.log", "w") as log:
         subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)

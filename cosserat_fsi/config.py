@@ -238,7 +238,7 @@ class Scene(_Section):
     @classmethod
     def _name(cls, value):
         if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", value):
-            raise ValueError(f"must be 1 to 100 letters, digits, '_', '-', '.' (got {_short(value)})")
+            raise ValueError(f"must use only letters, digits, '_', '-', '.' (1 to 100 of them; got {_short(value)})")
         return value
 
     @model_validator(mode="after")

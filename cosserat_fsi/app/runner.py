@@ -20,11 +20,13 @@ from mpi4py import MPI
 from .. import __version__, compat
 from ..analysis import periodic_analysis, relative_error
 from ..config import dump_resolved
-from ..errors import DivergenceError, Interrupted
+from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
-from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
+from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
+from ..io.runfolder import atomic_write_text
+from ..parallel import agree, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..scheme.stepper import Stepper
@@ -37,34 +39,49 @@ PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3
 def load_mesh(scene, comm):
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
-    path = build_msh(geo.name, geo.level, geo.msh_params()) if comm.rank == 0 else None
-    path = comm.bcast(path, root=0)
+
+    path = on_root(comm, build_msh, geo.name, geo.level, geo.msh_params(), step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
     return mesh, cell_tags, facet_tags, path
 
 
-def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False) -> dict:
+def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False,
+              commit=None) -> dict:
     """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json).
 
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
-    output, same rank count): the time series and fields after the checkpoint are dropped and rewritten.
-    A checkpoint is written every ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then
-    stop the run (:class:`Interrupted`).
+    output): the time series and fields after the checkpoint are dropped and rewritten; field steps
+    before it are kept even if ``output.fields`` is now off. A checkpoint is written every
+    ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then stop the run (:class:`Interrupted`).
+
+    Order (docs/reliability.md): read and check the checkpoint and every file of the folder, build the
+    mesh and the stepper, and only then ``commit()`` (rank 0: the CLI removes an overwritten run and
+    starts run.log) and write. A failure before the commit leaves the folder as it was; after it,
+    summary.json says ``completed``, ``diverged``, ``interrupted`` or ``failed``. Every rank-0-only step
+    shares its outcome with the other ranks (``parallel``).
     """
     out_dir = Path(out_dir)
     wall0 = time.perf_counter()
     fingerprint = scene_fingerprint(scene)
     meta = state = None
     if restart:
-        meta, state = read_checkpoint(out_dir, comm, fingerprint)
-    if comm.rank == 0:
-        (out_dir / "config.yaml").write_text(dump_resolved(scene), encoding="utf-8")
+        meta, state = agree(comm, read_checkpoint, out_dir, comm, fingerprint)
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
     n_vertices = mesh.topology.index_map(0).size_global
     stepper = Stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     observables = Observables(stepper)  # on the reference mesh (point A is found there)
     if restart:
-        stepper.restore(state)
+        agree(comm, stepper.restore, state)
+        on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
+                scene.output.fields)
+
+    def start():  # rank 0: from here on the folder is this run's
+        if commit is not None:
+            commit()
+        atomic_write_text(out_dir / "config.yaml", dump_resolved(scene))
+
+    on_root(comm, start, step="commit")
+    if restart:
         log.info("restart from the checkpoint of step %d (t = %.6g)", stepper.step_count, stepper.t)
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
              mesh.topology.index_map(mesh.topology.dim).size_global)
@@ -74,15 +91,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
     n_steps = int(round(scene.time.t_end / scene.time.dt))
     every = scene.output.every
-    series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
-                              keep_rows=meta["rows"] if restart else None)
-    fields = None
-    if scene.output.fields:
-        fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
-                                keep_steps=meta.get("field_steps", 0) if restart else None)
-    bar = _progress_bar(n_steps, progress and comm.rank == 0)
-    if bar is not None:
-        bar.update(stepper.step_count)
+    series = fields = bar = None
+    earlier_field_steps = meta["field_steps"] if restart else 0
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
 
@@ -90,11 +100,19 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         with stepper.timers("checkpoint"):
             write_checkpoint(out_dir, stepper, comm, {
                 "fingerprint": fingerprint, "rows": stepper.step_count,
-                "field_steps": fields.num_steps if fields is not None else 0})
+                "field_steps": fields.num_steps if fields is not None else earlier_field_steps})
 
     try:
+        series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
+                                  keep_rows=meta["rows"] if restart else None)
+        if scene.output.fields:
+            fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
+                                    keep_steps=earlier_field_steps if restart and earlier_field_steps else None)
+        bar = _progress_bar(n_steps, progress and comm.rank == 0)
+        if bar is not None:
+            bar.update(stepper.step_count)
         with _StopSignals() as stop:
-            if fields is not None and not restart:
+            if fields is not None and fields.num_steps == 0:
                 _write_fields(fields, stepper)
 
             def observe():  # after the solve, on the mesh the step was solved on
@@ -109,7 +127,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                 if bar is not None:
                     bar.update(1)
                     bar.set_postfix_str(f"t={stepper.t:.4g}", refresh=False)
-                signum = comm.allreduce(stop.signum, op=MPI.MAX)
+                signum = _step_end(comm, stop, series)
                 if signum:
                     checkpoint()
                     raise Interrupted(f"signal {signum} at step {stepper.step_count} (t = {stepper.t:.6g}): "
@@ -117,21 +135,61 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                                       f"{out_dir}`", signum)
                 if every_ck and (k + 1) % every_ck == 0 and k + 1 < n_steps:
                     checkpoint()
-    except DivergenceError as exc:
-        status, message = "diverged", str(exc)
-        raise
-    except Interrupted as exc:
-        status, message = "interrupted", str(exc)
+        series.close()
+        share(comm, series.error)
+    except BaseException as exc:
+        if comm.size > 1 and not (is_shared(exc) or isinstance(exc, DivergenceError)):
+            status = "local"
+            raise  # only this rank knows: no collective summary; the CLI ends every rank (MPI_Abort)
+        status, message = _status_of(exc)
         raise
     finally:
         if bar is not None:
             bar.close()
-        series.close()
+        if series is not None:
+            series.close()
         if fields is not None:
             fields.close()
-        summary = _summary(scene, stepper, out_dir, n_vertices, setup_time, time.perf_counter() - wall0,
-                           status, message, comm)
+        if status != "local":
+            summary = _write_summary(scene, stepper, out_dir, n_vertices, setup_time,
+                                     time.perf_counter() - wall0, status, message, comm)
     return summary
+
+
+def _status_of(exc: BaseException) -> tuple[str, str]:
+    """summary.json's (status, message) for a run that ended with ``exc``."""
+    if isinstance(exc, DivergenceError):
+        return "diverged", str(exc)
+    if isinstance(exc, (Interrupted, KeyboardInterrupt)):
+        return "interrupted", str(exc) or "Ctrl-C (SIGINT)"
+    if isinstance(exc, InternalError):
+        return "failed", f"{exc.kind}: {exc}"
+    return "failed", f"{type(exc).__name__}: {exc}"
+
+
+def _step_end(comm, stop, series) -> int:
+    """End of a step, on every rank: a failed row write on rank 0 (disk full) is raised everywhere; else
+    the largest signal number any rank received (0: none)."""
+    error = series.error
+    signum, failed = comm.allreduce((stop.signum, error is not None), op=MPI.MAX) if comm.size > 1 else \
+        (stop.signum, error is not None)
+    if failed:
+        share(comm, error)
+    return signum
+
+
+def _write_summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict | None:
+    """summary.json, written whatever ended the run; its own failure does not hide the run's."""
+    import sys
+
+    running = sys.exc_info()[1]
+    try:
+        return _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm)
+    except BaseException as exc:  # noqa: BLE001
+        if running is None:
+            raise
+        log.error("summary.json not written: %s", exc)
+        return None
 
 
 class _StopSignals:
@@ -188,9 +246,12 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB (Linux reports KiB)
     memory = {"peak_rss_mib_max_rank": comm.allreduce(rss, op=MPI.MAX),
               "peak_rss_mib_sum": comm.allreduce(rss, op=MPI.SUM)}
-    summary = None
-    if comm.rank == 0:
-        series = read_timeseries(out_dir / "timeseries.csv") if stepper.step_count else {}
+
+    def build_and_write():  # rank 0
+        try:
+            series = read_timeseries(out_dir / "timeseries.csv") if stepper.step_count else {}
+        except (OSError, InputError):  # a write that failed (disk full) may have left it short
+            series = {}
         steps = max(stepper.step_count, 1)
         summary = {
             "scene": scene.name,
@@ -213,8 +274,10 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")
-    return comm.bcast(summary, root=0)
+        atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))
+        return summary
+
+    return on_root(comm, build_and_write, step="summary")
 
 
 def _periodic(series: dict) -> dict:
