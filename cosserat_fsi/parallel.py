@@ -11,7 +11,8 @@ calls ``MPI_Abort`` with the exit code (app/cli.py), the last resort.
 :func:`failpoint` is the test hook of the fault suite (tests/faults/): ``COSSERAT_FSI_FAILPOINT=
 "<name>@<rank>[:<kind>[:<hit>]]"`` makes the named step fail on that rank (``*``: every rank) at its
 ``hit``-th passage (default 1), with ``kind`` one of ``error`` (a RuntimeError, a bug), ``enospc``
-(OSError: no space left), ``input`` (InputError), ``sigterm``/``sigint`` (the signal to this process).
+(OSError: no space left), ``input`` (InputError), ``sigterm``/``sigint`` (the signal to this process),
+``abort`` (SIGABRT, as a C library that dies).
 Unset, it costs one dictionary lookup.
 """
 
@@ -161,6 +162,8 @@ def failpoint(name: str) -> None:
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     if kind == "input":
         raise InputError(f"injected fault at {name}")
+    if kind == "abort":  # as a C library that dies (gmsh's std::bad_alloc)
+        os.abort()
     if kind in ("sigterm", "sigint"):
         os.kill(os.getpid(), signal.SIGTERM if kind == "sigterm" else signal.SIGINT)
         return

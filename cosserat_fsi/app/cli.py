@@ -86,6 +86,12 @@ def _cmd_run(args, context) -> int:
                  __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
         from cosserat_fsi.app.runner import run_scene  # heavy: dolfinx, PETSc
 
+        try:
+            import gmsh  # noqa: F401  (gmsh 4.8 resets SIGINT/SIGTERM when imported: import it now...)
+        except ImportError:
+            pass
+        install_signal_handlers()  # ...and put ours back
+
         def commit():  # rank 0, once everything is checked and set up: from here on the folder is the run's
             folder.commit_overwrite()
             context.traceback_file = run_log.commit(out, append=mode == "restart")

@@ -26,7 +26,7 @@ from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
-from ..parallel import agree, is_shared, on_root, share
+from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..scheme.stepper import Stepper
@@ -116,6 +116,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                 _write_fields(fields, stepper)
 
             def observe():  # after the solve, on the mesh the step was solved on
+                failpoint("observe")  # the fault suite's fault inside a collective step (MPI_Abort path)
                 with stepper.timers("observables"):
                     series.write(stepper.t, observables.evaluate())
 

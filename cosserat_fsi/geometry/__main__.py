@@ -16,6 +16,9 @@ def main(request: str) -> int:
     scale = module.SEED_SCALE if spec["level"] == "seed" else 2.0 ** -spec["level"]
     import gmsh
 
+    from ..parallel import failpoint
+
+    failpoint("gmsh")  # the fault suite: a gmsh that fails or dies
     try:
         gmsh.initialize(["gmsh", "-nopopup"], readConfigFiles=False)
         try:
