@@ -16,6 +16,8 @@ SHELL := /bin/bash
 export OPENBLAS_NUM_THREADS := 1
 export OMP_NUM_THREADS := 1
 export MPLBACKEND := Agg
+# gmsh meshes are cached in the repository's meshes/ (installed code defaults to ~/.cache/cosserat-fsi/meshes).
+export COSSERAT_FSI_MESH_CACHE ?= $(CURDIR)/meshes
 # OpenMPI refuses to run as root without these (harmless for MPICH and for non-root users).
 export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
@@ -171,7 +173,7 @@ extremes: $(RUN_SETUP)
 # (hours on 2 cores;
 # finished runs are kept, so it resumes)
 study: $(RUN_SETUP)
-	@for s in studies/*.yaml; do $(PY) -m cosserat_fsi study $$s --jobs 2 || exit 1; done
+	@for s in studies/*.yaml; do $(PY) -m cosserat_fsi study $$s --out docs --jobs 2 || exit 1; done
 	$(PY) campaigns/extremes.py
 
 info: setup setup-latest

@@ -14,11 +14,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
 
 
 def measure(config: str, overrides: list[str], steps: int) -> dict:

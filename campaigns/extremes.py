@@ -15,17 +15,18 @@ import argparse
 import fnmatch
 import json
 import os
-import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
+from cosserat_fsi.app import cases as app_cases
+
 ROOT = Path(__file__).resolve().parents[1]
+os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
 CONFIG = "configs/turek_hron_fsi3.yaml"
 BASE = {"geometry.level": 0, "time.dt": 0.005, "time.t_end": 2.0, "inflow.ramp_time": 0.5,
-        "output.fields": "false", "output.checkpoint_every": 0}
+        "output.fields": False, "output.checkpoint_every": 0}
 MICRO = {"micropolar.lambda1": 1.0e-4, "micropolar.inertia": 1.0e-4}
 
 # id -> (what, overrides)
@@ -62,22 +63,13 @@ WHY = {
 ENERGY_BOUND = 100.0  # × ½ ρ_f Ū² |channel|
 
 
-def run_case(case_id: str, runs: Path, python: str, extra: dict | None = None) -> Path:
+def run_case(case_id: str, runs: Path, python: str | None = None, extra: dict | None = None) -> Path:
     """Run one case (``extra``: further overrides, e.g. a shorter t_end in the tests)."""
-    out = runs / f"extreme-{case_id}"
-    summary = out / "summary.json"
-    if summary.exists() and json.loads(summary.read_text()).get("status") in ("completed", "diverged"):
-        return out
-    out.mkdir(parents=True, exist_ok=True)
-    args = []
-    for key, value in {**BASE, **CASES[case_id][1], **(extra or {})}.items():
-        args += ["--set", f"{key}={value}"]
-    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / CONFIG), "--out", str(out), "--overwrite", "--no-progress",
-           *args]  # --overwrite: an unfinished earlier attempt is replaced
-    with open(out / "stdout.log", "w") as log:
-        proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
-    (out / "exit_code").write_text(f"{proc.returncode}\n")
-    return out
+    return app_cases.run_case(_case(case_id, runs, extra), python)
+
+
+def _case(case_id: str, runs: Path, extra: dict | None = None) -> app_cases.Case:
+    return app_cases.Case(ROOT / CONFIG, runs / f"extreme-{case_id}", {**BASE, **CASES[case_id][1], **(extra or {})})
 
 
 def verdict(out: Path) -> dict:
@@ -117,7 +109,7 @@ def write_report(runs: Path, out: Path) -> Path:
                     f"{WHY.get(case_id, '')} |")
     lines = ["# Extremes", "",
              "Written by `make extremes` (`python campaigns/extremes.py`). Each case is "
-             f"`{CONFIG}` on the coarsest mesh with `{' '.join(f'{k}={v}' for k, v in BASE.items())}` and one "
+             f"`{CONFIG}` on the coarsest mesh with `{' '.join(app_cases.override(k, v) for k, v in BASE.items())}` and one "
              "parameter pushed to an extreme. *ok* means: completed with finite energy below "
              f"{ENERGY_BOUND:g} × ½ ρ_f Ū² |channel| (the scale column divides by that), or stopped with exit "
              "code 3 and a `diverged:` message naming when and where — never a silent NaN.", "", *rows, ""]
@@ -135,12 +127,10 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.out)
     runs = out / "runs"
-    cases = [c for c in CASES if fnmatch.fnmatch(c, args.only)]
+    chosen = [c for c in CASES if fnmatch.fnmatch(c, args.only)]
     if not args.report_only:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            for done in pool.map(lambda c: run_case(c, runs, sys.executable), cases):
-                print(f"finished {done.name}", flush=True)
+        app_cases.run_cases([_case(c, runs) for c in chosen], args.jobs,
+                            report=lambda done: print(f"finished {done.name}", flush=True))
     print(write_report(runs, out))
     return 0
 

@@ -61,6 +61,7 @@ def _env() -> dict:
     env = {k: v for k, v in os.environ.items() if not k.startswith(drop)}
     env.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", OMPI_ALLOW_RUN_AS_ROOT="1",
                OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PYTHONPATH=str(ROOT))
+    env.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
     return env
 
 

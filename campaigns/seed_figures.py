@@ -13,15 +13,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from cosserat_fsi.app.plots import Fields
-from validate import C1_VALUES, ROOT, Case, _save, run_case
+from cosserat_fsi.app import cases as app_cases
+from validate import C1_VALUES, ROOT, Case, _save
 
 CLASSICAL = "configs/seed_fsi3.yaml"
 COSSERAT = "configs/seed_cosserat_fsi3.yaml"
@@ -350,10 +349,8 @@ def main(argv=None) -> int:
     out = Path(args.out)
     runs = out / "runs"
     if not args.report_only:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            for done in pool.map(lambda c: run_case(c, runs, sys.executable, fields=True), CASES):
-                print(f"finished {done.name}", flush=True)
+        app_cases.run_cases([c.run(runs, fields=True) for c in CASES], args.jobs,
+                            report=lambda done: print(f"finished {done.name}", flush=True))
     print(write_report(runs, out))
     return 0
 

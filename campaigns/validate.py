@@ -13,13 +13,14 @@ import argparse
 import fnmatch
 import json
 import os
-import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cosserat_fsi.app import cases as app_cases
+
 ROOT = Path(__file__).resolve().parents[1]
+os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
 
 
 @dataclass
@@ -31,11 +32,9 @@ class Case:
     tolerances: dict = field(default_factory=dict)
     note: str = ""
 
-    def args(self) -> list[str]:
-        out = []
-        for key, value in self.overrides.items():
-            out += ["--set", f"{key}={value}"]
-        return out
+    def run(self, runs: Path, fields: bool = False) -> app_cases.Case:
+        """This case as a run into ``runs/<id>`` (field output off unless ``fields``)."""
+        return app_cases.Case(ROOT / self.config, runs / self.id, {"output.fields": fields, **self.overrides})
 
 
 def _c(level, scheme, dt, t_end=None):
@@ -131,29 +130,9 @@ _ALL = CASES + FSI_CASES + SWEEP_CASES
 ALL_CASES = [c for i in _FIRST for c in _ALL if c.id == i] + [c for c in _ALL if c.id not in _FIRST]
 
 
-def run_case(case: Case, runs: Path, python: str, fields: bool = False) -> Path:
-    """Run one case (unless it already finished) and return its output folder."""
-    out = runs / case.id
-    summary = out / "summary.json"
-    restart = []
-    if summary.exists():
-        done = json.loads(summary.read_text())
-        if done.get("status") == "completed":
-            from cosserat_fsi.config import load_scene
-
-            scene = load_scene(ROOT / case.config, [a for a in case.args() if a != "--set"])
-            if done["time"]["t_final"] >= scene.time.t_end - 0.5 * scene.time.dt:
-                return out
-            if (out / "checkpoint" / "meta.json").exists():  # a longer t_end: continue from the checkpoint
-                restart = ["--restart", str(out)]
-    elif (out / "checkpoint" / "meta.json").exists():  # interrupted (killed, machine restarted): resume
-        restart = ["--restart", str(out)]
-    out.mkdir(parents=True, exist_ok=True)
-    cmd = [python, "-m", "cosserat_fsi", "run", str(ROOT / case.config), *(restart or ["--out", str(out), "--overwrite"]),
-           "--no-progress", "--set", f"output.fields={str(fields).lower()}", *case.args()]
-    with open(out / "stdout.log", "w") as log:
-        subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, check=False)
-    return out
+def run_case(case: Case, runs: Path, python: str | None = None, fields: bool = False) -> Path:
+    """Run one case (unless it already finished; see cosserat_fsi.app.cases) and return its output folder."""
+    return app_cases.run_case(case.run(runs, fields), python)
 
 
 def measured(summary: dict, key: str):
@@ -386,13 +365,10 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     out = Path(args.out)
     runs = out / "runs"
-    cases = [c for c in ALL_CASES if fnmatch.fnmatch(c.id, args.only)]
+    chosen = [c for c in ALL_CASES if fnmatch.fnmatch(c.id, args.only)]
     if not args.report_only:
-        env_python = sys.executable
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            for done in pool.map(lambda c: run_case(c, runs, env_python), cases):
-                print(f"finished {done.name}", flush=True)
+        app_cases.run_cases([c.run(runs) for c in chosen], args.jobs,
+                            report=lambda done: print(f"finished {done.name}", flush=True))
     print(write_report(ALL_CASES, runs, out))
     return 0
 

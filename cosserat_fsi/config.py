@@ -16,10 +16,11 @@ from typing import Annotated, Any, Literal, Sequence
 
 import yaml
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
 
 from cosserat_fsi.errors import InputError
 from cosserat_fsi.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load  # noqa: F401
+from cosserat_fsi.geometry import GEOMETRIES, MODELS, Geometry, GeometryBase
 
 GEOMETRY_OF_BENCHMARK = {
     "schaefer_turek_2d1": ("schaefer_turek", None),
@@ -46,7 +47,6 @@ Benchmark = Literal[
     "seed_fsi3",
     "micropolar_poiseuille", "micropolar_taylor_green",
 ]
-MAX_LEVEL = 6
 MAX_STEPS = 100_000_000
 """Most time steps a scene may ask for (t_end / dt): beyond it a run would not end in a lifetime."""
 MAX_COUNT = 1_000_000_000
@@ -67,45 +67,6 @@ class _Section(BaseModel):
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
-
-
-SOLID_GEOMETRIES = ("flag", "box")
-"""Geometries whose mesh has solid cells (besides turek_hron with flag: solid); flag has no fluid."""
-
-
-class Geometry(_Section):
-    """Domain and mesh. ``length``/``height``: channel (defaults 1.0), square (side ``length``) and flag
-    (``length`` 0.35, thickness ``height`` 0.02; a solid-only scene)."""
-
-    name: Literal["turek_hron", "schaefer_turek", "channel", "square", "flag", "box"]
-    level: int | Literal["seed"] = 0
-    flag: Literal["solid", "rigid"] | None = None
-    length: PositiveFloat | None = None
-    height: PositiveFloat | None = None
-
-    @field_validator("level", mode="before")
-    @classmethod
-    def _level(cls, value):
-        if value == "seed" or (type(value) is int and 0 <= value <= MAX_LEVEL):
-            return value
-        raise ValueError(f"must be an integer 0..{MAX_LEVEL} or 'seed' (got {value!r})")
-
-    @model_validator(mode="after")
-    def _defaults(self):
-        if self.name == "turek_hron" and self.flag is None:
-            self.flag = "solid"
-        if self.name in ("channel", "square") and self.length is None:
-            self.length = 1.0
-        if self.name == "channel" and self.height is None:
-            self.height = 1.0
-        return self
-
-    def msh_params(self) -> dict:
-        """The ``params`` argument of ``geometry.build_msh`` for this geometry."""
-        flag = {k: v for k, v in (("length", self.length), ("thickness", self.height)) if v is not None}
-        return {"turek_hron": {"flag": self.flag}, "schaefer_turek": {},
-                "channel": {"length": self.length, "height": self.height},
-                "square": {"size": self.length}, "flag": flag, "box": {}}[self.name]
 
 
 class Fluid(_Section):
@@ -243,51 +204,41 @@ class Scene(_Section):
 
     @model_validator(mode="after")
     def _cross_checks(self):
-        """Checks across sections; messages carry their full dotted key."""
+        """Checks across sections; messages carry their full dotted key. (What each geometry accepts is
+        its own model's business: cosserat_fsi/geometry/.)"""
         geo, time = self.geometry, self.time
         if time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
             raise ValueError(f"time.dt: time.t_end / time.dt must be at most {MAX_STEPS:,} steps "
                              f"(got {time.t_end!r} / {time.dt!r})")
-        if geo.flag is not None and geo.name != "turek_hron":
-            raise ValueError(f"geometry.flag: only for geometry turek_hron (got {geo.name!r})")
-        if geo.level == "seed" and geo.name != "turek_hron":
-            raise ValueError(f"geometry.level: 'seed' only for geometry turek_hron (got {geo.name!r})")
-        for key in ("length", "height"):
-            if getattr(geo, key) is not None and (geo.name, key) not in (
-                    ("channel", "length"), ("channel", "height"), ("square", "length"),
-                    ("flag", "length"), ("flag", "height")):
-                raise ValueError(f"geometry.{key}: not used for geometry {geo.name!r}")
-        if self.fluid is None and geo.name != "flag":
+        if geo.FLUID and self.fluid is None:
             raise ValueError(f"fluid: missing section (required for geometry {geo.name})")
-        if self.fluid is not None and geo.name == "flag":
-            raise ValueError("fluid: not used for geometry flag (a solid-only scene)")
-        if geo.name in SOLID_GEOMETRIES and self.solid is None:
-            raise ValueError(f"solid: missing section (required for geometry {geo.name})")
+        if not geo.FLUID and self.fluid is not None:
+            raise ValueError(f"fluid: not used for geometry {geo.name} (a solid-only scene)")
+        flag = getattr(geo, "flag", None)
+        if geo.solid_cells and self.solid is None:
+            hint = ("geometry.flag is solid; use geometry.flag: rigid for a fluid-only run" if flag == "solid"
+                    else f"required for geometry {geo.name}")
+            raise ValueError(f"solid: missing section ({hint})")
+        if geo.INFLOW and self.inflow is None:
+            raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
         if self.benchmark is not None:
             need_name, need_flag = GEOMETRY_OF_BENCHMARK[self.benchmark]
             if geo.name != need_name:
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.name {need_name} "
                                  f"(got {geo.name!r})")
-            if need_flag is not None and geo.flag != need_flag:
-                raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} "
-                                 f"(got {geo.flag!r})")
-        if self.benchmark in ("micropolar_poiseuille", "micropolar_taylor_green"):
-            m = self.micropolar
-            if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
-                raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
-            if self.benchmark == "micropolar_taylor_green":
-                if abs(geo.length - np.pi) > 1e-6:
-                    raise ValueError(f"geometry.length: micropolar_taylor_green is on a square of side pi "
-                                     f"(3.14159265358979, got {geo.length!r})")
-                if m.inertia <= 0 and self.has_micropolar:
-                    raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
-        if geo.flag == "solid" and self.solid is None:
-            raise ValueError("solid: missing section (geometry.flag is solid; "
-                             "use geometry.flag: rigid for a fluid-only run)")
-        if self.inflow is None and geo.name in ("turek_hron", "schaefer_turek"):
-            raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
+            if need_flag is not None and flag != need_flag:
+                raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
+        m = self.micropolar
+        if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
+            raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
+        if self.benchmark == "micropolar_taylor_green":
+            if abs(geo.length - np.pi) > 1e-6:
+                raise ValueError(f"geometry.length: micropolar_taylor_green is on a square of side pi "
+                                 f"(3.14159265358979, got {geo.length!r})")
+            if m.inertia <= 0 and self.has_micropolar:
+                raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
         return self
 
     @property
@@ -300,8 +251,7 @@ class Scene(_Section):
     @property
     def has_solid(self) -> bool:
         """True if the mesh has solid cells (Turek–Hron with a solid flag, flag, box) and a solid section."""
-        geo = self.geometry
-        return self.solid is not None and (geo.flag == "solid" or geo.name in SOLID_GEOMETRIES)
+        return self.solid is not None and self.geometry.solid_cells
 
     @property
     def has_fluid(self) -> bool:
@@ -325,25 +275,38 @@ def dump_resolved(scene: Scene) -> str:
 
 # ----------------------------------------------------------------------------------------- loading
 
-def _section_model(parts: Sequence[str]) -> type[BaseModel] | None:
-    """The model class at dotted path ``parts`` (``()`` is the Scene), or None if it is not a section."""
-    model: Any = Scene
+def _models_at(parts: Sequence[str]) -> list[type[BaseModel]]:
+    """The model classes at dotted path ``parts`` (``()`` is the Scene; a union such as ``geometry`` gives
+    all its members), or ``[]`` if it is not a section."""
+    models: list[type[BaseModel]] = [Scene]
     for part in parts:
-        field = model.model_fields.get(part) if model else None
-        if field is None:
-            return None
-        model = next((a for a in (field.annotation, *getattr(field.annotation, "__args__", ()))
-                      if isinstance(a, type) and issubclass(a, BaseModel)), None)
-    return model
+        fields = [m.model_fields[part] for m in models if part in m.model_fields]
+        models = [a for f in fields for a in (f.annotation, *getattr(f.annotation, "__args__", ()))
+                  if isinstance(a, type) and issubclass(a, BaseModel)]
+    return models
+
+
+def _field_names(parts: Sequence[str]) -> list[str]:
+    """Keys allowed in the section at ``parts`` (for a union: in any of its members)."""
+    return list(dict.fromkeys(name for m in _models_at(parts) for name in m.model_fields))
 
 
 def _unknown_key(parts: Sequence[str]) -> str:
     """``"a.b: unknown key (did you mean 'c'?)"`` for the last element of ``parts``."""
-    model = _section_model(parts[:-1])
-    names = list(model.model_fields) if model else []
+    names = _field_names(parts[:-1])
     close = difflib.get_close_matches(parts[-1], names, n=1)
     hint = f"did you mean {close[0]!r}?" if close else "allowed: " + ", ".join(names)
     return f"{'.'.join(parts)}: unknown key ({hint})"
+
+
+def _not_for_geometry(key: str, name: str) -> str:
+    """A key of another geometry's model given to geometry ``name``."""
+    owners = [g for g, model in MODELS.items() if key in model.model_fields]
+    if not owners:
+        return _unknown_key(["geometry", key])
+    if len(owners) == 1:
+        return f"geometry.{key}: only for geometry {owners[0]} (got geometry {name!r})"
+    return f"geometry.{key}: not used for geometry {name!r} (only for {', '.join(owners)})"
 
 
 def _dotted(loc: Sequence[str | int]) -> str:
@@ -357,13 +320,24 @@ def _dotted(loc: Sequence[str | int]) -> str:
 def _describe(err: dict) -> str:
     """One pydantic error -> ``"<dotted.key>: <problem>"``."""
     loc, kind, got, ctx = err["loc"], err["type"], err.get("input"), err.get("ctx", {})
+    member = None
+    if len(loc) > 1 and loc[0] == "geometry" and loc[1] in GEOMETRIES:  # the union's tag is not a key
+        member, loc = loc[1], (loc[0], *loc[2:])
+    if kind == "union_tag_invalid":
+        return f"{_dotted(loc)}.name: must be one of {', '.join(GEOMETRIES)} (got {ctx.get('tag')!r})"
+    if kind == "union_tag_not_found":
+        return f"{_dotted(loc)}.name: missing key (one of {', '.join(GEOMETRIES)})"
+    if kind == "extra_forbidden" and member is not None:
+        return _not_for_geometry(str(loc[-1]), member)
     if kind == "value_error":
         message = str(ctx["error"])
-        return f"{_dotted(loc)}: {message}" if loc else message
+        if not loc or message.startswith((_dotted(loc) + ".", _dotted(loc) + ":")):  # already names its key
+            return message
+        return f"{_dotted(loc)}: {message}"
     if kind == "extra_forbidden":
         return _unknown_key([str(p) for p in loc])
     if kind == "missing":
-        what = "missing section" if _section_model([str(p) for p in loc]) else "missing key"
+        what = "missing section" if _models_at([str(p) for p in loc]) else "missing key"
         return f"{_dotted(loc)}: {what}"
     problems = {
         "greater_than": lambda: f"must be > {ctx['gt']:g}",
@@ -381,6 +355,7 @@ def _describe(err: dict) -> str:
         "too_long": lambda: f"must have {ctx.get('max_length')} entries",
         "model_type": lambda: "must be a mapping of keys",
         "dict_type": lambda: "must be a mapping of keys",
+        "model_attributes_type": lambda: "must be a mapping of keys",
     }
     problem = problems[kind]() if kind in problems else err["msg"].lower()
     return f"{_dotted(loc)}: {problem} (got {_short(got)})"
@@ -402,10 +377,9 @@ def _apply_override(data: dict, item: str) -> None:
     if not sep or not all(re.fullmatch(r"\w+", p) for p in parts):
         raise InputError(f"--set {item}: expected dotted.key=value (e.g. time.dt=1e-3)")
     for i in range(len(parts)):
-        section = _section_model(parts[:i])
-        if section is None:
+        if not _models_at(parts[:i]):
             raise InputError(f"{'.'.join(parts[:i])}: is a value, not a section (in --set {key})")
-        if parts[i] not in section.model_fields:
+        if parts[i] not in _field_names(parts[:i]):
             raise InputError(_unknown_key(parts[:i + 1]))
     try:
         value = yaml_load(text)
@@ -422,6 +396,13 @@ def _apply_override(data: dict, item: str) -> None:
     node[parts[-1]] = value
 
 
+def _one_line(exc: ValidationError, prefix: tuple = ()) -> str:
+    """The first error of ``exc`` (an unknown key first: a misspelt key also shows up as a missing one)."""
+    errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
+    more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
+    return _describe({**errors[0], "loc": (*prefix, *errors[0]["loc"])}) + more
+
+
 def validate_scene(data: Any, source: str = "config") -> Scene:
     """Validate a raw mapping into a Scene, raising a one-line InputError."""
     if not isinstance(data, dict):
@@ -432,10 +413,19 @@ def validate_scene(data: Any, source: str = "config") -> Scene:
     try:
         return Scene.model_validate(data)
     except ValidationError as exc:
-        # an unknown key first: a misspelt key also shows up as a missing one
-        errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
-        more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
-        raise InputError(_describe(errors[0]) + more) from None
+        raise InputError(_one_line(exc)) from None
+
+
+_GEOMETRY = TypeAdapter(Geometry)
+
+
+def validate_geometry(data: Any) -> GeometryBase:
+    """A ``geometry`` section on its own (e.g. ``{"name": "channel", "length": 2.0}``) as its model, raising
+    a one-line InputError ``geometry.<key>: <problem>``."""
+    try:
+        return _GEOMETRY.validate_python(data)
+    except ValidationError as exc:
+        raise InputError(_one_line(exc, ("geometry",))) from None
 
 
 def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:

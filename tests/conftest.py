@@ -25,6 +25,8 @@ except ImportError as exc:  # ModuleNotFoundError included
         raise
 
 REPO = Path(__file__).resolve().parents[1]
+# Meshes are cached in the repository's meshes/ (as the Makefile does); subprocesses inherit it.
+os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(REPO / "meshes"))
 # The campaign scripts (campaigns/*.py) are not installed: tests import them from the repository.
 if str(REPO / "campaigns") not in sys.path:
     sys.path.insert(0, str(REPO / "campaigns"))

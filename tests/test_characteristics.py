@@ -4,7 +4,7 @@ import numpy as np
 from mpi4py import MPI
 
 from cosserat_fsi import compat
-from cosserat_fsi.geometry import build_msh
+from cosserat_fsi.geometry import SchaeferTurek, build_msh
 from cosserat_fsi.scheme.characteristics import PointLocator, eval_at
 
 import dolfinx
@@ -12,7 +12,7 @@ import dolfinx
 
 def test_vectorised_p2_evaluation_equals_function_eval(tmp_path):
     """eval_at (barycentric P2 basis) = dolfinx's Function.eval to round-off, scalar and vector."""
-    path = build_msh("schaefer_turek", 0, cache_dir=tmp_path) if MPI.COMM_WORLD.rank == 0 else None
+    path = build_msh(SchaeferTurek(), cache_dir=tmp_path) if MPI.COMM_WORLD.rank == 0 else None
     mesh, _, _ = compat.read_msh(MPI.COMM_WORLD.bcast(path), MPI.COMM_WORLD)
     locator = PointLocator(mesh)
     rng = np.random.default_rng(0)

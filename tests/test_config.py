@@ -73,6 +73,17 @@ BAD = [
     ("solid_flag_without_solid", None, ["geometry.flag=solid"], "solid: missing section"),
     ("no_inflow", None, ["inflow=null"], "inflow: missing section"),
     ("length_on_turek_hron", None, ["geometry.length=2"], "geometry.length: not used for geometry 'turek_hron'"),
+    # the geometry union: one model per geometry, chosen by name
+    ("geometry_without_name", BASE.replace("name: turek_hron, ", ""), [], "geometry.name: missing key"),
+    ("height_on_square", None, ["geometry.name=square", "geometry.flag=null", "geometry.height=2"],
+     "geometry.height: not used for geometry 'square' (only for channel, flag)"),
+    ("radius_on_channel", None, ["geometry={name: channel, radius: 0.1}"], "geometry.radius: only for geometry box"),
+    ("misspelt_geometry_key", None, ["geometry.lenght=2"], "geometry.lenght: unknown key (did you mean 'length'?)"),
+    ("box_radius_too_large", None, ["geometry={name: box, radius: 0.5}", "solid={rho: 1, mu_s: 1}"],
+     "geometry.radius: must be < 0.5 (got 0.5)"),
+    ("flag_height_negative", None, ["geometry={name: flag, height: -1}"], "geometry.height: must be > 0 (got -1)"),
+    ("seed_on_flag", None, ["geometry={name: flag, level: seed}"], "geometry.level: 'seed' only for geometry turek_hron"),
+    ("geometry_not_a_mapping", None, ["geometry=3"], "geometry: must be a mapping of keys (got 3)"),
     ("body_force_length", None, ["fluid.body_force=[1]"], "fluid.body_force: must have 2 entries"),
     ("body_force_item", None, ["fluid.body_force=[1, x]"], "fluid.body_force[1]: must be a number"),
     ("every_zero", None, ["output.every=0"], "output.every: must be >= 1"),
@@ -110,7 +121,7 @@ def test_defaults_and_properties(tmp_path):
     assert (scene.has_inflow, scene.has_solid, scene.has_micropolar) == (True, False, False)
     channel = load_scene(write(tmp_path, "geometry: {name: channel}\nfluid: {rho: 1, mu: 1}\n"
                                          "time: {dt: 0.1, t_end: 1}\n"))
-    assert (channel.geometry.length, channel.geometry.height, channel.geometry.flag) == (1.0, 1.0, None)
+    assert (channel.geometry.length, channel.geometry.height) == (1.0, 1.0) and not hasattr(channel.geometry, "flag")
     assert channel.geometry.msh_params() == {"length": 1.0, "height": 1.0}
     assert not channel.has_inflow
 

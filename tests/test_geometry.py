@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 
 from cosserat_fsi import errors, geometry
+from cosserat_fsi.config import validate_geometry
 from cosserat_fsi.geometry import turek_hron
+
+
+def _geo(name, level=0, params=None):
+    """The validated model of a ``geometry`` section."""
+    return validate_geometry({"name": name, "level": level, **(params or {})})
 
 R, A_HALF = 0.05, 0.01  # cylinder radius, flag half thickness
 X0 = turek_hron.FLAG_START
@@ -49,7 +55,7 @@ def _is_vertex(x, point):
 
 @pytest.mark.parametrize("level,flag", [(0, "solid"), (1, "solid"), ("seed", "rigid")])
 def test_turek_hron_measures(tmp_path, level, flag):
-    m = _measures(geometry.build_msh("turek_hron", level, {"flag": flag}, tmp_path))
+    m = _measures(geometry.build_msh(_geo("turek_hron", level, {"flag": flag}), tmp_path))
     hole = math.pi * R**2 + (0 if flag == "solid" else FLAG_AREA)
     assert m["fluid"] + m["solid"] == pytest.approx(2.5 * 0.41 - hole, rel=1e-3)
     assert m["solid"] == (pytest.approx(FLAG_AREA, rel=1e-3) if flag == "solid" else 0)
@@ -65,7 +71,7 @@ def test_turek_hron_measures(tmp_path, level, flag):
 
 
 def test_schaefer_turek_measures(tmp_path):
-    m = _measures(geometry.build_msh("schaefer_turek", 0, None, tmp_path))
+    m = _measures(geometry.build_msh(_geo("schaefer_turek", 0, None), tmp_path))
     assert m["fluid"] == pytest.approx(2.2 * 0.41 - math.pi * R**2, rel=1e-3) and m["solid"] == 0
     assert (m["inlet"], m["outlet"], m["walls"]) == pytest.approx((0.41, 0.41, 4.4), rel=1e-12)
     assert m["cylinder"] == pytest.approx(2 * math.pi * R, rel=5e-3) and m["interface"] == 0
@@ -74,18 +80,18 @@ def test_schaefer_turek_measures(tmp_path):
 
 
 def test_channel_and_square_measures(tmp_path):
-    m = _measures(geometry.build_msh("channel", 1, {"length": 2.0, "height": 0.5}, tmp_path))
+    m = _measures(geometry.build_msh(_geo("channel", 1, {"length": 2.0, "height": 0.5}), tmp_path))
     assert m["vertices"] == (64 + 1) * (16 + 1)
     assert (m["fluid"], m["inlet"], m["outlet"], m["walls"]) == pytest.approx((1.0, 0.5, 0.5, 4.0), rel=1e-12)
-    m = _measures(geometry.build_msh("square", 0, {"size": 2.0}, tmp_path))
+    m = _measures(geometry.build_msh(_geo("square", 0, {"length": 2.0}), tmp_path))
     assert m["vertices"] == 81
     assert (m["fluid"], m["walls"], m["lid"], m["inlet"]) == pytest.approx((4.0, 6.0, 2.0, 0.0), abs=1e-12)
 
 
-@pytest.mark.parametrize("level,params", [(0, None), (1, None), (1, {"length": 1.0, "thickness": 0.1})])
+@pytest.mark.parametrize("level,params", [(0, None), (1, None), (1, {"length": 1.0, "height": 0.1})])
 def test_flag_measures(tmp_path, level, params):
-    length, thickness = (params or {}).get("length", 0.35), (params or {}).get("thickness", 0.02)
-    m = _measures(geometry.build_msh("flag", level, params, tmp_path))
+    length, thickness = (params or {}).get("length", 0.35), (params or {}).get("height", 0.02)
+    m = _measures(geometry.build_msh(_geo("flag", level, params), tmp_path))
     assert (m["solid"], m["fluid"]) == (pytest.approx(length * thickness, rel=1e-12), 0)
     assert m["clamp"] == pytest.approx(thickness, rel=1e-12)
     assert m["interface"] == pytest.approx(2 * length + thickness, rel=1e-12) and m["interior5"] == 0
@@ -94,14 +100,14 @@ def test_flag_measures(tmp_path, level, params):
     ny = 4 * 2**level
     assert m["vertices"] == (round(4 * length / thickness) * ny // 4 + 1) * (ny + 1)  # L0 defaults: 71 x 5
     assert _is_vertex(m["x"], (length, thickness / 2))
-    assert geometry.describe("flag", params)["points"]["A"] == (length, thickness / 2)
+    assert _geo("flag", level, params).describe()["points"]["A"] == (length, thickness / 2)
 
 
 def test_box_measures(tmp_path):
     r = 0.2
     errors_ = []
     for level in (0, 1):
-        m = _measures(geometry.build_msh("box", level, None, tmp_path))
+        m = _measures(geometry.build_msh(_geo("box", level, None), tmp_path))
         assert m["fluid"] + m["solid"] == pytest.approx(1.0, rel=1e-12)
         assert m["solid"] == pytest.approx(math.pi * r**2, abs=2e-3)  # inscribed polygon
         assert m["fluid"] == pytest.approx(1 - math.pi * r**2, abs=2e-3)
@@ -112,7 +118,7 @@ def test_box_measures(tmp_path):
             assert _is_vertex(m["x"], point)
         errors_.append(math.pi * r**2 - m["solid"])
     assert 0 < errors_[1] < errors_[0] / 3  # O(h^2)
-    m = _measures(geometry.build_msh("box", 0, {"radius": 0.1}, tmp_path))
+    m = _measures(geometry.build_msh(_geo("box", 0, {"radius": 0.1}), tmp_path))
     assert m["solid"] == pytest.approx(math.pi * 0.1**2, abs=1e-3)
     assert m["interior5"] == pytest.approx(2 * math.pi * 0.1, rel=1e-2) and m["walls"] == pytest.approx(4.0)
 
@@ -134,35 +140,35 @@ def _gmsh_vertices(path):
                                                 ("schaefer_turek", None, 600, 900), ("box", None, 300, 500)])
 def test_vertex_counts_per_level(tmp_path, name, flag, low, high):
     params = {"flag": flag} if flag else None
-    n0, n1 = (_gmsh_vertices(geometry.build_msh(name, level, params, tmp_path)) for level in (0, 1))
+    n0, n1 = (_gmsh_vertices(geometry.build_msh(_geo(name, level, params), tmp_path)) for level in (0, 1))
     assert low <= n0 <= high
     assert 3.3 <= n1 / n0 <= 4.2
 
 
 def test_seed_level(tmp_path):
-    assert _gmsh_vertices(geometry.build_msh("turek_hron", "seed", None, tmp_path)) == pytest.approx(2199, rel=0.05)
+    assert _gmsh_vertices(geometry.build_msh(_geo("turek_hron", "seed", None), tmp_path)) == pytest.approx(2199, rel=0.05)
 
 
 def test_deterministic_and_cached(tmp_path, monkeypatch):
-    a = geometry.build_msh("turek_hron", 0, None, tmp_path / "a")
-    b = geometry.build_msh("turek_hron", 0, {"flag": "solid"}, tmp_path / "b")
+    a = geometry.build_msh(_geo("turek_hron", 0, None), tmp_path / "a")
+    b = geometry.build_msh(_geo("turek_hron", 0, {"flag": "solid"}), tmp_path / "b")
     assert a.name == b.name and a.read_bytes() == b.read_bytes()
     # no temporary file left; the .sha256 stamp guards the cache
     assert sorted(p.name for p in (tmp_path / "a").iterdir()) == [a.name, a.with_suffix(".sha256").name]
     assert a.read_text().startswith("$MeshFormat\n4.1 0 8\n")
-    assert geometry.build_msh("turek_hron", 0, {"flag": "rigid"}, tmp_path / "a") != a
+    assert geometry.build_msh(_geo("turek_hron", 0, {"flag": "rigid"}), tmp_path / "a") != a
 
     def fail(*args):
         raise AssertionError("rebuilt a cached mesh")
 
     monkeypatch.setattr(turek_hron, "build", fail)
-    assert geometry.build_msh("turek_hron", 0, None, tmp_path / "a") == a
+    assert geometry.build_msh(_geo("turek_hron", 0, None), tmp_path / "a") == a
 
 
 @pytest.mark.parametrize("damage", ["truncated", "garbage", "no_stamp"])
 def test_damaged_cached_mesh_is_rebuilt(tmp_path, damage):
     """A cached .msh that was truncated, overwritten or has no stamp is rebuilt, never read."""
-    path = geometry.build_msh("channel", 0, None, tmp_path)
+    path = geometry.build_msh(_geo("channel", 0, None), tmp_path)
     good = path.read_bytes()
     if damage == "truncated":
         path.write_bytes(good[: len(good) // 3])
@@ -170,21 +176,21 @@ def test_damaged_cached_mesh_is_rebuilt(tmp_path, damage):
         path.write_text("$MeshFormat\nnot a mesh\n")
     else:
         path.with_suffix(".sha256").unlink()
-    assert geometry.build_msh("channel", 0, None, tmp_path) == path
+    assert geometry.build_msh(_geo("channel", 0, None), tmp_path) == path
     assert path.read_bytes() == good and path.with_suffix(".sha256").exists()
 
 
-@pytest.mark.parametrize("name,defaults,other", [("flag", {"length": 0.35, "thickness": 0.02}, {"thickness": 0.03}),
+@pytest.mark.parametrize("name,defaults,other", [("flag", {"length": 0.35, "height": 0.02}, {"height": 0.03}),
                                                 ("box", {"radius": 0.2}, {"radius": 0.25})])
 def test_deterministic_new_geometries(tmp_path, monkeypatch, name, defaults, other):
-    a = geometry.build_msh(name, 0, None, tmp_path / "a")
-    b = geometry.build_msh(name, 0, defaults, tmp_path / "b")
+    a = geometry.build_msh(_geo(name, 0, None), tmp_path / "a")
+    b = geometry.build_msh(_geo(name, 0, defaults), tmp_path / "b")
     assert a.name == b.name and a.name.startswith(f"{name}-L0-") and a.read_bytes() == b.read_bytes()
     assert sorted(p.name for p in (tmp_path / "a").iterdir()) == [a.name, a.with_suffix(".sha256").name]
     assert a.read_text().startswith("$MeshFormat\n4.1 0 8\n")
-    assert geometry.build_msh(name, 0, other, tmp_path / "a").name != a.name
+    assert geometry.build_msh(_geo(name, 0, other), tmp_path / "a").name != a.name
     monkeypatch.setattr(getattr(geometry, name), "build", lambda *args: pytest.fail("rebuilt a cached mesh"))
-    assert geometry.build_msh(name, 0, defaults, tmp_path / "a") == a
+    assert geometry.build_msh(_geo(name, 0, defaults), tmp_path / "a") == a
 
 
 @pytest.mark.parametrize("name,level,params,key", [
@@ -199,9 +205,9 @@ def test_deterministic_new_geometries(tmp_path, monkeypatch, name, defaults, oth
     ("channel", 0, {"height": "1"}, "geometry.height"),
     ("channel", 0, {"size": 1.0}, "geometry.size"),
     ("flag", "seed", None, "geometry.level"),
-    ("flag", 0, {"thickness": 0.0}, "geometry.thickness"),
+    ("flag", 0, {"height": 0.0}, "geometry.height"),
     ("flag", 0, {"length": "0.35"}, "geometry.length"),
-    ("flag", 0, {"height": 0.02}, "geometry.height"),
+    ("flag", 0, {"thickness": 0.02}, "geometry.thickness"),
     ("box", 7, None, "geometry.level"),
     ("box", 0, {"radius": -0.1}, "geometry.radius"),
     ("box", 0, {"radius": 0.5}, "geometry.radius"),
@@ -210,25 +216,25 @@ def test_deterministic_new_geometries(tmp_path, monkeypatch, name, defaults, oth
 ])
 def test_bad_input(tmp_path, name, level, params, key):
     with pytest.raises(errors.InputError, match=rf"^{key}: "):
-        geometry.build_msh(name, level, params, tmp_path)
+        geometry.build_msh(_geo(name, level, params), tmp_path)
     assert not any(tmp_path.iterdir())
 
 
 def test_describe_and_levels():
-    d = geometry.describe("turek_hron")
+    d = _geo("turek_hron").describe()
     assert d["points"]["A"] == (0.6, 0.2) and d["cell_tags"] == {"fluid": 1, "solid": 2}
     assert d["facet_tags"] == {"inlet": 1, "outlet": 2, "walls": 3, "cylinder": 4, "interface": 5}
-    assert geometry.describe("square")["facet_tags"] == {"walls": 3, "lid": 6}
-    assert geometry.describe("channel", {"height": 0.41})["height"] == 0.41
-    assert "seed" in geometry.LEVELS["turek_hron"] and "seed" not in geometry.LEVELS["channel"]
-    assert set(geometry.LEVELS) == set(geometry.GEOMETRIES)
-    d = geometry.describe("flag")
+    assert _geo("square").describe()["facet_tags"] == {"walls": 3, "lid": 6}
+    assert _geo("channel", 0, {"height": 0.41}).describe()["height"] == 0.41
+    assert geometry.TurekHron.SEED and not any(m.SEED for n, m in geometry.MODELS.items() if n != "turek_hron")
+    assert all(model.model_fields["name"].default == name for name, model in geometry.MODELS.items())
+    d = _geo("flag").describe()
     assert d["points"] == {"A": (0.35, 0.01)} and d["cell_tags"] == {"solid": 2}
     assert d["facet_tags"] == {"interface": 5, "clamp": 7} and (d["length"], d["thickness"]) == (0.35, 0.02)
-    d = geometry.describe("box")
+    d = _geo("box").describe()
     assert d["cell_tags"] == {"fluid": 1, "solid": 2} and d["facet_tags"] == {"walls": 3, "interface": 5}
     assert d["disk"] == {"centre": (0.5, 0.5), "radius": 0.2}
-    assert geometry.describe("box", {"radius": 0.1})["disk"]["radius"] == 0.1
+    assert _geo("box", 0, {"radius": 0.1}).describe()["disk"]["radius"] == 0.1
 
 
 def test_import_is_light():

@@ -56,10 +56,7 @@ def _validate_run(args):
         raise InputError("--out: needs a folder (got an empty path)")
     if args.restart is not None and args.overwrite:
         raise InputError("--overwrite: not with --restart (a restart continues the run in its folder)")
-    scene = load_scene(args.config, args.set)
-    from cosserat_fsi.geometry import check as check_geometry
-
-    check_geometry(scene.geometry.name, scene.geometry.level, scene.geometry.msh_params())
+    scene = load_scene(args.config, args.set)  # the geometry's size is checked there (geometry/_model.py)
     check_caches()
     out, mode = (Path(args.out) if args.out else Path("runs") / scene.name), "overwrite" if args.overwrite else "new"
     if args.restart is not None:
@@ -110,7 +107,7 @@ def _cmd_mesh(args, context=None) -> int:
     scene = load_scene(args.config, args.set)
     from cosserat_fsi.geometry import build_msh
 
-    path = build_msh(scene.geometry.name, scene.geometry.level, scene.geometry.msh_params())
+    path = build_msh(scene.geometry)
     import gmsh
 
     gmsh.initialize()
@@ -232,7 +229,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.set_defaults(func=_cmd_plot)
     study = sub.add_parser("study", help="run a ladder of runs (mesh × δt × options) and report error, time, memory")
     study.add_argument("study", help="study YAML file (see studies/)")
-    study.add_argument("--out", help="folder for the report, figures and runs (default: docs/)")
+    study.add_argument("--out", help="folder for the report, figures and runs (default: the current directory)")
     study.add_argument("--jobs", type=int, default=1, help="runs at a time (default 1)")
     study.add_argument("--report-only", action="store_true", help="only rewrite the report from finished runs")
     study.set_defaults(func=_cmd_study)

@@ -39,8 +39,7 @@ PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3
 def load_mesh(scene, comm):
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
-
-    path = on_root(comm, build_msh, geo.name, geo.level, geo.msh_params(), step="mesh")
+    path = on_root(comm, build_msh, geo, step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
     return mesh, cell_tags, facet_tags, path
 

@@ -12,8 +12,9 @@ levels × δt × scheme × solver options):
       time.dt: [0.002, 0.001]
     ranks: 1                                                   # optional: runs under mpirun -n ranks
 
-Each run is a `cosserat-fsi run` into ``<out>/runs/study-<name>/<run id>/``; finished runs are not run
-again. The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the
+``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
+``<out>/runs/study-<name>/<run id>/`` (``<out>``: ``--out``, default the current directory), through the
+campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume. The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the
 benchmark's reference, wall time, time per step, the per-phase times and the peak memory, and
 ``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto front.
 """
@@ -22,10 +23,6 @@ from __future__ import annotations
 
 import itertools
 import json
-import os
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +31,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from ..errors import InputError
 from ..io.runfolder import atomic_write_text
 from ..safe_yaml import read_text_file, read_yaml_file
+from . import cases
 
-ROOT = Path(__file__).resolve().parents[1]
 MAX_RUNS = 1000
 PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_motion", "observables", "output")
 
@@ -63,8 +60,7 @@ def load_study(path) -> Study:
         err = exc.errors(include_url=False)[0]
         where = ".".join(str(p) for p in err["loc"]) or "study"
         raise InputError(f"{path}: {where}: {' '.join(err['msg'].lower().split())[:200]}") from None
-    config = (path.parent / study.config) if not Path(study.config).is_absolute() else Path(study.config)
-    if not config.exists() and not (ROOT / study.config).exists():
+    if not _config_path(study, path).exists():
         raise InputError(f"{path}: config: {study.config} not found")
     runs = 1
     for key, values in study.ladder.items():
@@ -85,8 +81,8 @@ def load_study(path) -> Study:
 
 
 def _config_path(study: Study, study_path: Path) -> Path:
-    local = study_path.parent / study.config
-    return local if local.exists() else ROOT / study.config
+    """The scene file: relative to the study file (an absolute path stays as it is)."""
+    return study_path.parent / study.config
 
 
 def _yaml(value) -> str:
@@ -104,41 +100,13 @@ def _run_id(study: Study, overrides: dict) -> str:
 
 
 def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tuple[dict, Path]]:
+    """Run every run of the ladder not finished yet, ``jobs`` at a time; returns (overrides, folder) pairs."""
     runs = out / "runs" / f"study-{study.name}"
     config = _config_path(study, study_path)
     todo = [(o, runs / _run_id(study, o)) for o in _combinations(study)]
-
-    def one(item):
-        overrides, folder = item
-        if (read_summary(folder) or {}).get("status") in ("completed", "diverged"):
-            return folder
-        folder.mkdir(parents=True, exist_ok=True)
-        # an interrupted run (killed, machine restarted) continues from its last checkpoint
-        where = (["--restart", str(folder)] if (folder / "checkpoint" / "meta.json").exists()
-                 else ["--out", str(folder), "--overwrite"])  # an earlier attempt that failed is replaced
-        cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(config), *where, "--no-progress",
-               "--set", "output.fields=false"]
-        for key, value in overrides.items():
-            cmd += ["--set", f"{key}={_yaml(value)}"]
-        if study.ranks > 1:
-            cmd = _launcher(study.ranks) + cmd
-        env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-        with open(folder / "stdout.log", "w") as log:
-            subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT, env=env, check=False)
-        return folder
-
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        list(pool.map(one, todo))
+    cases.run_cases([cases.Case(config, folder, {"output.fields": False, **overrides}, study.ranks)
+                     for overrides, folder in todo], jobs)
     return todo
-
-
-def _launcher(n: int) -> list[str]:
-    here = Path(sys.executable).parent
-    for name in ("mpiexec", "mpirun"):
-        exe = here / name
-        if exe.exists():
-            return [str(exe), "-n", str(n)]
-    return ["mpirun", "--allow-run-as-root", "-n", str(n)]
 
 
 def _measure(study: Study, folder: Path) -> dict | None:
@@ -254,12 +222,13 @@ def _plot(study, points, labels, front, out: Path) -> str:
     return str(path.relative_to(out))
 
 
-def main_study(path, out=None, jobs: int = 1, report_only: bool = False) -> Path:
+def main_study(path: str | Path, out: str | Path | None = None, jobs: int = 1, report_only: bool = False) -> Path:
+    """Check the study file, run what is not finished (unless ``report_only``) and write the report."""
     study_path = Path(path)
     if not 1 <= jobs <= 64:
         raise InputError(f"--jobs: must be 1..64 (got {jobs})")
     study = load_study(study_path)
-    out = Path(out) if out else ROOT / "docs"
+    out = Path(out) if out else Path.cwd()
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

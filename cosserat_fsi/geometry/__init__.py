@@ -1,6 +1,11 @@
 """Deterministic gmsh builders with the project's physical tags, cached as MSH 4.1 ASCII files.
 
-``build_msh(name, level, params, cache_dir)`` returns the path of ``<name>-L<level>-<sha1>.msh``, running
+Each builder module defines one pydantic model of its parameters (``channel.Channel``, ...); ``Geometry`` is
+their discriminated union on ``name`` (the ``geometry`` section of a scene, validated once, by config). To
+add a geometry: a module with ``describe(params)``, ``build(gmsh, scale, params)`` and a ``GeometryBase``
+subclass, listed in ``Geometry``, ``_MODULES`` and ``MODELS`` below.
+
+``build_msh(geometry, cache_dir)`` returns the path of ``<name>-L<level>-<sha1>.msh``, running
 gmsh (on the calling process only) when the file is not cached yet. Level L halves the element size of
 level L-1 (about 4x the vertices); ``"seed"`` (turek_hron only) matches the seed paper's mesh size.
 Importing this package imports neither gmsh nor dolfinx.
@@ -13,92 +18,48 @@ sides), cylinder 4 (circle), interface 5 (turek_hron flag boundary off the cylin
 edges, exterior; box: the circle, interior), lid 6 (square top), clamp 7 (flag: left edge x = 0).
 """
 
+from __future__ import annotations
+
 import hashlib
-import logging
 import json
+import logging
 import os
 import pathlib
-import tempfile
+from typing import Annotated
 
-from .. import errors
+from pydantic import Field
+
+from ..errors import InputError
 from . import _gmsh, box, channel, flag, schaefer_turek, square, turek_hron
+from ._model import MAX_LEVEL, GeometryBase
+from .box import Box
+from .channel import Channel
+from .flag import Flag
+from .schaefer_turek import SchaeferTurek
+from .square import Square
+from .turek_hron import TurekHron
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
+Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box, Field(discriminator="name")]
+"""The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
 _MODULES = {"turek_hron": turek_hron, "schaefer_turek": schaefer_turek, "channel": channel, "square": square,
             "flag": flag, "box": box}
-GEOMETRIES = tuple(_MODULES)
-MIN_DIMENSION, MAX_DIMENSION = 1e-6, 1e6
-"""Bounds of every length parameter (m): below, gmsh's geometric tolerance merges points."""
-SCENE_KEY = {"thickness": "height", "size": "length"}
-"""Builder parameter -> the scene's geometry key it comes from (for messages)."""
-MAX_CELLS = 10_000_000
-"""Largest mesh built (cells, estimated before gmsh runs): level 6 of turek_hron has about 6.5 M."""
-LEVELS = {name: module.LEVELS for name, module in _MODULES.items()}
-
-
-def _module(name):
-    if name not in _MODULES:
-        raise errors.InputError(f"geometry.name: must be one of {', '.join(GEOMETRIES)} (got {name!r})")
-    return _MODULES[name]
-
-
-def _check(name, level, params):
-    """Validate name, level and params; returns (module, params with defaults, as floats/strings)."""
-    module = _module(name)
-    if isinstance(level, bool) or level not in module.LEVELS:
-        allowed = ", ".join(map(str, module.LEVELS))
-        raise errors.InputError(f"geometry.level: must be one of {allowed} for {name} (got {level!r})")
-    full = dict(module.DEFAULTS)
-    for key, value in (params or {}).items():
-        if key not in full:
-            allowed = ", ".join(full) or "none"
-            raise errors.InputError(f"geometry.{key}: not a parameter of {name} (allowed: {allowed})")
-        if key in module.CHOICES:
-            if value not in module.CHOICES[key]:
-                allowed = ", ".join(module.CHOICES[key])
-                raise errors.InputError(f"geometry.{key}: must be one of {allowed} (got {value!r})")
-        elif isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-            raise errors.InputError(f"geometry.{key}: must be a number > 0 (got {value!r})")
-        elif not MIN_DIMENSION <= value <= MAX_DIMENSION:
-            raise errors.InputError(f"geometry.{SCENE_KEY.get(key, key)}: must be between {MIN_DIMENSION:g} "
-                                    f"and {MAX_DIMENSION:g} "
-                                    f"(m; got {value!r})")
-        else:
-            value = float(value)
-        full[key] = value
-    if hasattr(module, "validate"):
-        module.validate(full)
-    if hasattr(module, "estimate_cells"):
-        scale = module.SEED_SCALE if level == "seed" else 2.0**-level
-        cells = module.estimate_cells(scale, full)
-        if cells > MAX_CELLS:
-            keys = ", ".join(f"geometry.{SCENE_KEY.get(k, k)}"
-                             for k in ("level", *sorted(set(full) - set(module.CHOICES))))
-            raise errors.InputError(f"geometry: {keys} give about {cells:.3g} cells, more than {MAX_CELLS:,} "
-                                    "(lower the level or make the sides less elongated)")
-    return module, full
-
-
-def describe(name, params=None):
-    """Cell/facet tag names -> values, named points (e.g. {"A": (0.6, 0.2)}) and dimensions of ``name``."""
-    module, full = _check(name, 0, params)
-    return module.describe(full)
-
+MODELS = {"turek_hron": TurekHron, "schaefer_turek": SchaeferTurek, "channel": Channel, "square": Square,
+          "flag": Flag, "box": Box}
+GEOMETRIES = tuple(MODELS)
+__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Flag", "Geometry", "GeometryBase", "MODELS",
+           "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir"]
 
 log = logging.getLogger("cosserat_fsi")
 
 
-def default_cache_dir():
-    """The mesh cache folder: ``$COSSERAT_FSI_MESH_CACHE``, else ``<repo>/meshes`` in a writable source
-    checkout, else ``~/.cache/cosserat-fsi/meshes``, else a folder in the temporary directory."""
+def default_cache_dir() -> pathlib.Path:
+    """Where meshes are cached: ``$COSSERAT_FSI_MESH_CACHE`` if set (the Makefile and the tests set it to the
+    repository's ``meshes/``; InputError if it cannot be written), else ``$XDG_CACHE_HOME/cosserat-fsi/meshes``
+    (default ``~/.cache/...``), else a folder in the temporary directory (cache.py)."""
     from ..cache import mesh_cache_dir
 
     return mesh_cache_dir()
-
-
-def check(name, level, params=None) -> None:
-    """Validate a geometry (names, bounds, estimated cell count) without running gmsh."""
-    _check(name, level, params)
 
 
 def _sha256(path: pathlib.Path) -> str:
@@ -130,15 +91,14 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def build_msh(name, level, params=None, cache_dir=None):
-    """Path of the cached .msh for (name, level, params); builds it with gmsh if missing.
+def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None) -> pathlib.Path:
+    """Path of the cached .msh of a (validated) geometry model; builds it with gmsh if missing.
 
-    Raises ``errors.InputError`` for an unknown name, level or parameter, a mesh estimated too large, or
-    a gmsh that fails. gmsh runs in a child process (``python -m cosserat_fsi.geometry``): a signal stops
-    it at once, its crash (e.g. out of memory) is a one-line error, and it writes to a temporary name
-    that is renamed when complete, so the cache never holds a partial mesh.
+    gmsh runs in a child process (``python -m cosserat_fsi.geometry``): a signal stops it at once, its
+    crash (e.g. out of memory) is a one-line InputError, and it writes to a temporary name that is renamed
+    when complete, so the cache never holds a partial mesh (temporaries of dead processes are removed).
     """
-    module, full = _check(name, level, params)
+    name, level, full = geometry.name, geometry.level, geometry.msh_params()
     key = json.dumps({"name": name, "level": level, "params": full, "version": BUILDER_VERSION}, sort_keys=True)
     cache = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = cache / f"{name}-L{level}-{hashlib.sha1(key.encode()).hexdigest()[:10]}.msh"
@@ -154,7 +114,7 @@ def build_msh(name, level, params=None, cache_dir=None):
         cache.mkdir(parents=True, exist_ok=True)
         _clean_stale_temporaries(cache)
     except OSError as exc:
-        raise errors.InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
+        raise InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
     tmp = cache / f".{path.stem}.{os.getpid()}.tmp.msh"
     stamp_tmp = cache / f".{stamp.name}.{os.getpid()}.tmp"
     try:
@@ -164,7 +124,7 @@ def build_msh(name, level, params=None, cache_dir=None):
         stamp_tmp.write_text(digest + "\n")
         os.replace(stamp_tmp, stamp)
     except OSError as exc:
-        raise errors.InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
+        raise InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
     finally:
         for leftover in (tmp, stamp_tmp):
             try:
@@ -194,4 +154,4 @@ def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
         lines = output.decode("utf-8", "replace").strip().splitlines()
         why = lines[-1] if lines else (f"killed by signal {-proc.returncode}" if proc.returncode < 0
                                        else f"exit code {proc.returncode}")
-        raise errors.InputError(f"geometry: gmsh could not mesh {name} level {level} ({why[:200]})")
+        raise InputError(f"geometry: gmsh could not mesh {name} level {level} ({why[:200]})")

@@ -5,14 +5,14 @@ import json
 import signal
 import sys
 
-from . import _gmsh, _module
+from . import _MODULES, _gmsh
 
 
 def main(request: str) -> int:
     """Build the mesh the JSON ``request`` describes."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)  # the parent cleans up; die at once
     spec = json.loads(request)
-    module = _module(spec["name"])
+    module = _MODULES[spec["name"]]
     scale = module.SEED_SCALE if spec["level"] == "seed" else 2.0 ** -spec["level"]
     import gmsh
 

@@ -9,26 +9,33 @@ h = 0.04 on it growing to 0.06 at distance 0.1, both halved per level (unstructu
 Vertex counts (defaults, gmsh 4.8; 4.15 differs by < 0.4 %), L0 / L1 / L2 / L3: 452 / 1,602 / 6,089 / 23,808.
 """
 
+from typing import ClassVar, Literal
+
 import math
 
-from .. import errors
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from pydantic import Field
 
-LEVELS = (0, 1, 2, 3, 4, 5, 6)
-DEFAULTS = {"radius": 0.2}
-CHOICES = {}
+from ._model import GeometryBase
+
 SIZE, CENTRE = 1.0, (0.5, 0.5)
 H_MIN, H_MAX, DIST_MAX = 0.04, 0.06, 0.1
 _EPS = 1e-8
 
 
-def validate(params):
-    """Constraints between parameters beyond "a number > 0"."""
-    if not params["radius"] < min(CENTRE):
-        raise errors.InputError(f"geometry.radius: must be < {min(CENTRE)} (got {params['radius']!r})")
-    if not params["radius"] >= 0.01:  # below, the disk is smaller than the cells around it
-        raise errors.InputError(f"geometry.radius: must be >= 0.01 (got {params['radius']!r})")
+class Box(GeometryBase):
+    """Closed unit box around a solid disk of ``radius`` (default 0.2, below 0.5)."""
+
+    name: Literal["box"] = "box"
+    radius: float = Field(default=0.2, ge=0.01, lt=0.5)  # below 0.01 the disk is smaller than its cells
+
+    @property
+    def solid_cells(self) -> bool:
+        return True
+
+    def msh_params(self) -> dict:
+        return {"radius": float(self.radius)}
 
 
 def describe(params):

@@ -5,12 +5,22 @@ level; along the channel round(8 * length / height) (at least 1) times the same 
 L0: 81 vertices (8x8), L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
+from typing import ClassVar, Literal
+
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from ._model import GeometryBase, PositiveFloat
 
-LEVELS = (0, 1, 2, 3, 4, 5, 6)
-DEFAULTS = {"length": 1.0, "height": 1.0}
-CHOICES = {}
+
+class Channel(GeometryBase):
+    """Rectangular channel ``length`` x ``height`` (defaults 1 x 1)."""
+
+    name: Literal["channel"] = "channel"
+    length: PositiveFloat = 1.0
+    height: PositiveFloat = 1.0
+
+    def msh_params(self) -> dict:
+        return {"length": float(self.length), "height": float(self.height)}
 
 
 def describe(params):

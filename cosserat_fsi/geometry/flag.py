@@ -9,12 +9,27 @@ per level; along the flag max(1, round(4 * length / thickness)) times the same f
 square 0.005 x 0.005 cells). Defaults: L0 355 vertices (71x5), L1 1,269 (141x9), L2 4,777 (281x17), ...
 """
 
+from typing import ClassVar, Literal
+
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from ._model import GeometryBase, PositiveFloat
 
-LEVELS = (0, 1, 2, 3, 4, 5, 6)
-DEFAULTS = {"length": 0.35, "thickness": 0.02}
-CHOICES = {}
+
+class Flag(GeometryBase):
+    """The Turek–Hron flag alone, ``length`` x ``height`` (defaults 0.35 x 0.02): a solid-only scene."""
+
+    FLUID: ClassVar[bool] = False
+    name: Literal["flag"] = "flag"
+    length: PositiveFloat = 0.35
+    height: PositiveFloat = 0.02
+
+    @property
+    def solid_cells(self) -> bool:
+        return True
+
+    def msh_params(self) -> dict:
+        return {"length": float(self.length), "thickness": float(self.height)}
 
 
 def describe(params):

@@ -7,15 +7,22 @@ cylinder, h = 0.01 on it growing to 0.06 at distance 0.3, both halved per level.
 Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %): L0 687, L1 2,517, L2 9,700, L3 38,064.
 """
 
+from typing import ClassVar, Literal
+
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from ._model import GeometryBase
 
-LEVELS = (0, 1, 2, 3, 4, 5, 6)
-DEFAULTS = {}
-CHOICES = {}
 LENGTH, HEIGHT = 2.2, 0.41
 CENTRE, RADIUS = (0.2, 0.2), 0.05
 H_MIN, H_MAX, DIST_MAX = 0.01, 0.06, 0.3
+
+
+class SchaeferTurek(GeometryBase):
+    """Channel 2.2 x 0.41 with a cylinder (no parameters)."""
+
+    INFLOW: ClassVar[bool] = True
+    name: Literal["schaefer_turek"] = "schaefer_turek"
 
 
 def describe(params):

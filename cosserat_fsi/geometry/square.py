@@ -4,12 +4,21 @@ Structured (transfinite) triangles, "Left" diagonals, 8x8 divisions at level 0, 
 L0: 81 vertices, L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
+from typing import ClassVar, Literal
+
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from ._model import GeometryBase, PositiveFloat
 
-LEVELS = (0, 1, 2, 3, 4, 5, 6)
-DEFAULTS = {"size": 1.0}
-CHOICES = {}
+
+class Square(GeometryBase):
+    """Square cavity of side ``length`` (default 1) with a moving lid."""
+
+    name: Literal["square"] = "square"
+    length: PositiveFloat = 1.0
+
+    def msh_params(self) -> dict:
+        return {"size": float(self.length)}
 
 
 def describe(params):

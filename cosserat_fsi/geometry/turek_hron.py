@@ -11,20 +11,37 @@ Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %), L0 / L1 / L2 / L3 / seed:
 solid flag 784 / 2,843 / 10,916 / 42,416 / 2,179 (seed paper: 2,199); rigid 758 / 2,723 / 10,378 / 40,211 / 2,087.
 """
 
+from typing import ClassVar, Literal
+
 import math
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from ._model import GeometryBase
 
-LEVELS = (0, 1, 2, 3, 4, 5, 6, "seed")
-DEFAULTS = {"flag": "solid"}
-CHOICES = {"flag": ("solid", "rigid")}
 LENGTH, HEIGHT = 2.5, 0.41
 CENTRE, RADIUS = (0.2, 0.2), 0.05
 FLAG_END, FLAG_Y = 0.6, (0.19, 0.21)
 FLAG_START = CENTRE[0] + math.sqrt(RADIUS**2 - (FLAG_Y[1] - CENTRE[1]) ** 2)  # 0.24899
 SEED_SCALE = 0.575
 H_MIN, H_MAX, DIST_MAX = 0.014, 0.07, 0.3
+
+
+class TurekHron(GeometryBase):
+    """Channel 2.5 x 0.41 with a cylinder and a flag: ``flag: solid`` (an elastic flag, FSI) or ``rigid`` (a hole
+    in the fluid, CFD)."""
+
+    SEED: ClassVar[bool] = True
+    INFLOW: ClassVar[bool] = True
+    name: Literal["turek_hron"] = "turek_hron"
+    flag: Literal["solid", "rigid"] = "solid"
+
+    @property
+    def solid_cells(self) -> bool:
+        return self.flag == "solid"
+
+    def msh_params(self) -> dict:
+        return {"flag": self.flag}
 
 
 def describe(params):

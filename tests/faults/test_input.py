@@ -74,7 +74,7 @@ GEOMETRY = {  # sizes refused before gmsh runs, naming the keys
     "channel_height_tiny": (FSI[1], ["geometry.height=1e-12"], "geometry.height: must be between"),
     "channel_length_inf": (FSI[1], ["geometry.length=.inf"], "geometry.length: must be a finite number"),
     "channel_elongated": (FSI[1], ["geometry.length=1e5", "geometry.height=1e-3", "geometry.level=2"],
-                          "geometry: geometry.level, geometry.height, geometry.length give about"),
+                          "error: geometry: geometry.level, geometry.length, geometry.height give about"),
     "solid_c2_inf": (FSI[0], ["solid.c2=.inf"], "solid.c2: must be a finite number"),
     "solid_gravity_nan": (FSI[0], ["solid.gravity=.nan"], "solid.gravity: must be a finite number"),
     "solid_velocity_inf": (FSI[0], ["solid.initial_velocity=[0, .inf]"],
