@@ -61,14 +61,17 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     """
     out_dir = Path(out_dir)
     wall0 = time.perf_counter()
+    handlers = _signal_handlers()
     fingerprint = scene_fingerprint(scene)
     meta = state = None
     if restart:
         meta, state = agree(comm, read_checkpoint, out_dir, comm, fingerprint)
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
+    _signal_handlers(handlers)
     n_vertices = mesh.topology.index_map(0).size_global
     stepper = Stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     observables = Observables(stepper)  # on the reference mesh (point A is found there)
+    _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     if restart:
         agree(comm, stepper.restore, state)
         on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
@@ -190,6 +193,17 @@ def _write_summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status
             raise
         log.error("summary.json not written: %s", exc)
         return None
+
+
+def _signal_handlers(restore: dict | None = None) -> dict:
+    """The Python handlers of SIGINT and SIGTERM; with ``restore``, install those again (which also puts
+    Python's C-level handler back where a library replaced it). Main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    for sig, handler in (restore or {}).items():
+        if handler is not None:
+            signal.signal(sig, handler)
+    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
 class _StopSignals:
