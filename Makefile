@@ -27,12 +27,17 @@ APT_PACKAGES := python3-dolfinx-real python3-gmsh python3-h5py python3-yaml pyth
                 python3-matplotlib python3-pip libopenblas0-pthread openmpi-bin python3-paraview
 SYSTEM_PYTHON := /usr/bin/python3
 VENV := .venv
-PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista
+# numba (compiled characteristics, scheme/_kernels.py) from PyPI, pinned: 0.68.1 runs on Debian's numpy 1.24
+# (its floor is 1.22), so pip leaves /usr/lib's numpy alone; a later numba with a higher numpy floor would
+# pull a second numpy into the venv that shadows the one dolfinx 0.5.2 was built against (checked below).
+# Debian's python3-numba 0.56.4 works too, but drags in scipy and compiles differently from the latest stack.
+NUMBA_PIN := numba==0.68.1 llvmlite==0.50.0
+PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista $(NUMBA_PIN)
 MPIRUN_DEBIAN := mpirun --allow-run-as-root --oversubscribe
 
 # ------------------------------------------------------------------------------------ latest stack
 VENV_LATEST := .venv-latest
-PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest
+PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest $(NUMBA_PIN)
 PYENV_ROOT ?= $(HOME)/.pyenv
 # A Python >= 3.12: pyenv's newest 3.12.x, else python3.12 on PATH. Override: make setup-latest PYTHON_LATEST=...
 PYTHON_LATEST ?= $(or $(shell ls -d $(PYENV_ROOT)/versions/3.12*/bin/python3 2>/dev/null | sort -V | tail -n 1),$(shell command -v python3.12 2>/dev/null))
@@ -97,6 +102,9 @@ $(STAMP_DEBIAN):
 	fi
 	$(VENV)/bin/pip install $(foreach p,$(PIP_DEBIAN),'$(p)')
 	$(VENV)/bin/pip install --no-deps --no-build-isolation -e .
+	@$(VENV)/bin/python -c 'import numpy, sys; sys.exit(not numpy.__file__.startswith("/usr/lib/"))' \
+	  || { echo "error: $(VENV) has a numpy of its own that shadows Debian's (dolfinx 0.5.2 needs it): $$($(VENV)/bin/pip list 2>/dev/null | grep -i '^numpy ')" >&2; exit 1; }
+	$(VENV)/bin/python -c 'import numpy, dolfinx, numba; print("setup: numpy", numpy.__version__, "dolfinx", dolfinx.__version__, "numba", numba.__version__)'
 	@rm -f $(VENV)/.stamp-*
 	@touch $@
 	@echo "setup: $(VENV) ready ($@)"

@@ -148,13 +148,29 @@ class Time(_Section):
     Lagrange–Galerkin scheme unstable at Courant numbers below one (Morton, Priestley & Süli 1988): with
     degree 4 or 5 the steady CFD2 wake turned noisy at δt = 0.0025; degree 8 (16 points) kept it steady
     and within 0.5 % of the reference.
+
+    ``scheme: steady`` solves the steady equations (no time derivative) by Newton's method
+    (cosserat_fsi/scheme/steady.py); ``dt`` and ``t_end`` are then not used (one "step" at t = 1).
+    ``newton_*``: its iteration limit, relative residual tolerance, and the continuation steps (fractions
+    of the convection, or of the load for a solid) tried one after the other when Newton from the
+    Stokes/unloaded state does not converge.
     """
 
-    dt: PositiveFloat
-    t_end: PositiveFloat
-    scheme: Literal["characteristics1", "characteristics2"] = "characteristics1"
+    dt: PositiveFloat | None = None
+    t_end: PositiveFloat | None = None
+    scheme: Literal["characteristics1", "characteristics2", "steady"] = "characteristics1"
     characteristics: Literal["quadrature", "nodes"] = "quadrature"
     quadrature_degree: int = Field(default=8, ge=2, le=12)
+    newton_max_iterations: int = Field(default=25, ge=1, le=1000)
+    newton_rtol: float = Field(default=1e-10, gt=0, lt=1)
+    newton_continuation: list[Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=lambda: [0.25, 0.5, 1.0])
+
+    @model_validator(mode="after")
+    def _steady_defaults(self):
+        if self.scheme == "steady":
+            self.dt = 1.0 if self.dt is None else self.dt
+            self.t_end = self.dt if self.t_end is None else self.t_end
+        return self
 
 
 class Solver(_Section):
@@ -207,7 +223,10 @@ class Scene(_Section):
         """Checks across sections; messages carry their full dotted key. (What each geometry accepts is
         its own model's business: cosserat_fsi/geometry/.)"""
         geo, time = self.geometry, self.time
-        if time.t_end < time.dt:
+        for key in ("dt", "t_end"):
+            if getattr(time, key) is None:
+                raise ValueError(f"time.{key}: field required (for scheme {time.scheme})")
+        if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
             raise ValueError(f"time.dt: time.t_end / time.dt must be at most {MAX_STEPS:,} steps "

@@ -1,19 +1,27 @@
 """Point location and the vectorised P2 evaluation used by the characteristics."""
 
 import numpy as np
+import pytest
 from mpi4py import MPI
 
 from cosserat_fsi import compat
 from cosserat_fsi.geometry import SchaeferTurek, build_msh
-from cosserat_fsi.scheme.characteristics import PointLocator, eval_at
+from cosserat_fsi.scheme import _kernels, characteristics
+from cosserat_fsi.scheme.characteristics import (Characteristics, PointLocator, eval_at, evaluate,
+                                                 neighbour_table, probe)
 
 import dolfinx
 
 
-def test_vectorised_p2_evaluation_equals_function_eval(tmp_path):
-    """eval_at (barycentric P2 basis) = dolfinx's Function.eval to round-off, scalar and vector."""
+def _mesh(tmp_path):
     path = build_msh(SchaeferTurek(), cache_dir=tmp_path) if MPI.COMM_WORLD.rank == 0 else None
     mesh, _, _ = compat.read_msh(MPI.COMM_WORLD.bcast(path), MPI.COMM_WORLD)
+    return mesh
+
+
+def test_vectorised_p2_evaluation_equals_function_eval(tmp_path):
+    """eval_at (barycentric P2 basis) = dolfinx's Function.eval to round-off, scalar and vector."""
+    mesh = _mesh(tmp_path)
     locator = PointLocator(mesh)
     rng = np.random.default_rng(0)
     points = np.zeros((400, 3))
@@ -28,3 +36,56 @@ def test_vectorised_p2_evaluation_equals_function_eval(tmp_path):
         ours = eval_at(locator, f, points[found], cells[found])
         theirs = f.eval(points[found], cells[found]).reshape(found.sum(), -1)
         assert np.abs(ours - theirs).max() < 1e-12
+
+
+def test_neighbour_table():
+    """Two triangles sharing the edge (1, 2): each is the other's neighbour across it, opposite node 0 of
+    the first and node 3 (local 1) of the second; the other edges are boundary (−1)."""
+    table = neighbour_table(np.array([[0, 1, 2], [1, 3, 2], [4, 5, 6]], dtype=np.int32))
+    assert table.tolist() == [[1, -1, -1], [-1, 0, -1], [-1, -1, -1]]
+
+
+@pytest.mark.mpi
+def test_compiled_backtracking_equals_numpy(tmp_path, monkeypatch):
+    """The numba kernels locate the same cells and give the same values as the numpy reference, on the
+    feet of a BDF2-like step (hint cells, feet in other cells, on other ranks, outside the domain and
+    pulled back), at the P2 nodes (on edges and vertices: ties between cells) and for probes: cells identical, values equal to round-off (the kernels repeat the
+    numpy operations in the same order, so in practice bit for bit). Serial and under 2 ranks."""
+    if not _kernels.ENABLED:
+        pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1): no compiled path to compare")
+    comm = MPI.COMM_WORLD
+    mesh = _mesh(tmp_path)
+    V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))
+    S = compat.function_space(mesh, "Lagrange", 2)
+    u, p = dolfinx.fem.Function(V), dolfinx.fem.Function(S)
+    u.interpolate(lambda x: np.vstack([4 * x[1] * (0.41 - x[1]) / 0.41**2 + 0.3 * np.sin(7 * x[0]),
+                                       0.5 * np.cos(5 * x[0] + 3 * x[1])]))
+    p.interpolate(lambda x: np.exp(x[0]) * np.sin(4 * x[1]))
+    chars = Characteristics(V, comm=comm)
+    x, hint = chars.quadrature_nodes(4)
+    h = 0.41 / 8  # ~ the cell size of level 0
+    rng = np.random.default_rng(comm.rank)
+    feet = x - 0.03 * np.hstack([chars.at_quadrature_nodes(u, 4), np.zeros((len(x), 1))])  # mostly near
+    jump = rng.random(len(x)) < 0.1  # and 10 % anywhere within 3 cells, many across the walls
+    feet[jump, :2] += rng.uniform(-3 * h, 3 * h, (jump.sum(), 2))
+    fixed = np.array([[0.2, 0.2, 0.0], [1.0, 0.1, 0.0], [2.1, 0.4, 0.0], [0.2, 0.45, 0.0]])
+
+    def run(compiled):
+        monkeypatch.setattr(characteristics, "COMPILED", compiled)
+        loc = chars.locator
+        return dict(cells=loc.locate(feet), nodes=loc.locate(chars.nodes()), hinted=loc.locate(feet, hint=hint),
+                    owned=loc.locate(feet, owned_only=True, hint=hint),
+                    values=evaluate(loc, [u, p], feet, x, comm, hint=hint),
+                    probes=probe(loc, [u, p], fixed, comm))
+
+    ref, ours = run(False), run(True)
+    for key in ("cells", "nodes", "hinted", "owned"):
+        assert np.array_equal(ref[key], ours[key]), key
+    moved = ref["hinted"] != hint
+    assert (ref["cells"] < 0).any() and moved.any()  # the cases are exercised
+    walked = _kernels.walk(feet, hint, chars.locator.x0, chars.locator.Jinv_flat, chars.locator.neighbours,
+                           1e-10, np.iinfo(np.int32).max, 64)
+    assert (walked[moved] >= 0).mean() > 0.5  # most feet that left their cell are found by the walk
+    for a, b in zip(ref["values"] + ref["probes"], ours["values"] + ours["probes"]):
+        assert a.shape == b.shape and np.array_equal(np.isnan(a), np.isnan(b))
+        assert np.nanmax(np.abs(a - b)) <= 1e-14 * np.nanmax(np.abs(a))

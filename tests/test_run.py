@@ -17,7 +17,7 @@ from cosserat_fsi.io import read_timeseries
 def _run(repo_root, tmp_path, *sets):
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(repo_root / "configs/schaefer_turek_2d1.yaml"),
-           "--out", str(out), "--no-progress", "--set", "geometry.level=0"]
+           "--out", str(out), "--no-progress", "--set", "geometry.level=0", "--set", "time.scheme=characteristics1"]
     for s in sets:
         cmd += ["--set", s]
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)

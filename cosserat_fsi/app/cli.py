@@ -9,6 +9,7 @@ dolfinx, petsc4py nor gmsh: they are loaded only by the subcommands that need th
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import logging
 import platform
@@ -21,7 +22,7 @@ from cosserat_fsi.app.failure import (Context, RunLog, check_utf8_arguments, ins
                                       robust_streams, say, write_traceback)
 from cosserat_fsi.cache import check_caches
 from cosserat_fsi.config import load_scene
-from cosserat_fsi.errors import InputError
+from cosserat_fsi.errors import DivergenceError, InputError
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -93,14 +94,37 @@ def _cmd_run(args, context) -> int:
             folder.commit_overwrite()
             context.traceback_file = run_log.commit(out, append=mode == "restart")
 
-        run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
-                  restart=mode == "restart", commit=commit)
+        try:
+            summary = run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
+                                restart=mode == "restart", commit=commit)
+        except DivergenceError:
+            _say_how_it_did(out, comm)
+            raise
+        _say_how_it_did(out, comm, summary)
         log.info("done: %s", out)
     finally:
         if folder is not None:
             folder.release()
         run_log.close()
     return 0
+
+
+def _say_how_it_did(out: Path, comm, summary: dict | None = None):
+    """The run's last lines: the benchmark table, headline observables, wall time (app/verdict.py)."""
+    if comm.rank != 0:
+        return
+    from cosserat_fsi.app.verdict import verdict_lines
+
+    if summary is None:
+        try:
+            summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return
+    try:
+        for line in verdict_lines(summary):
+            log.info("%s", line)
+    except Exception as exc:  # noqa: BLE001 (a report, not the run: never turn a finished run into a failure)
+        log.info("(no verdict: %s: %s)", type(exc).__name__, exc)
 
 
 def _cmd_mesh(args, context=None) -> int:

@@ -18,7 +18,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
-from ..analysis import periodic_analysis, relative_error
+from ..analysis import relative_error
 from ..config import dump_resolved
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
@@ -29,7 +29,8 @@ from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
-from ..scheme.stepper import Stepper
+from ..scheme.steady import make_stepper
+from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -69,7 +70,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
     _signal_handlers(handlers)
     n_vertices = mesh.topology.index_map(0).size_global
-    stepper = Stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
+    stepper = make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     observables = Observables(stepper)  # on the reference mesh (point A is found there)
     _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     if restart:
@@ -91,7 +92,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     log.info("dofs: %s", stepper.num_dofs())
     setup_time = time.perf_counter() - wall0
 
-    n_steps = int(round(scene.time.t_end / scene.time.dt))
+    steady = scene.time.scheme == "steady"
+    n_steps = 1 if steady else int(round(scene.time.t_end / scene.time.dt))
     every = scene.output.every
     series = fields = bar = None
     earlier_field_steps = meta["field_steps"] if restart else 0
@@ -114,7 +116,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         if bar is not None:
             bar.update(stepper.step_count)
         with _StopSignals() as stop:
-            if fields is not None and fields.num_steps == 0:
+            if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, stepper)
 
             def observe():  # after the solve, on the mesh the step was solved on
@@ -124,7 +126,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
             for k in range(stepper.step_count, n_steps):
                 stepper.advance(before_move=observe)
-                if fields is not None and (k + 1) % every == 0:
+                if fields is not None and (steady or (k + 1) % every == 0):
                     with stepper.timers("output"):
                         _write_fields(fields, stepper)
                 if bar is not None:
@@ -138,6 +140,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                                       f"{out_dir}`", signum)
                 if every_ck and (k + 1) % every_ck == 0 and k + 1 < n_steps:
                     checkpoint()
+            if steady:
+                stepper.check()  # a Newton that did not converge: exit 3 after the outputs
         series.close()
         share(comm, series.error)
     except BaseException as exc:
@@ -282,8 +286,11 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(stepper.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
-            "periodic": _periodic(series),
         }
+        # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
+        summary["signals"], summary["periodic"] = classify_signals(series)
+        if getattr(stepper, "report", None) is not None:  # steady solve: Newton's iterations and residuals
+            summary["newton"] = stepper.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:

@@ -11,16 +11,26 @@ fields are evaluated there with a parallel point location:
    so they take the value at the boundary crossing ("points that leave the domain take the boundary value").
 
 w is the mesh velocity (ALE): with w = 0 this is the fixed-mesh scheme.
+
+The barycentric tests and the P2 evaluation run in compiled kernels (``_kernels``, numba) when numba is
+available (``COMPILED``; ``COSSERAT_FSI_NO_NUMBA=1`` turns them off); the numpy functions here are the
+reference they reproduce operation by operation, and the fallback.
 """
 
 from __future__ import annotations
+
+import weakref
 
 import numpy as np
 from mpi4py import MPI
 
 from .. import compat
+from . import _kernels
 
+COMPILED = _kernels.ENABLED  # use the numba kernels (module flag: tests compare both paths)
 _TOL = 1e-10  # barycentric tolerance, relative to the reference triangle
+_WALK_STEPS = 64  # cells crossed by a compiled walk before the bounding-box tree takes over
+_NEIGHBOURS = weakref.WeakKeyDictionary()  # mesh -> cell neighbour table (the topology does not move)
 
 
 class PointLocator:
@@ -50,42 +60,71 @@ class PointLocator:
                 mesh.geometry.x[:, :2] = current
         x = mesh.geometry.x[:, :2] if coordinates is None else np.asarray(coordinates)
         nodes = compat.geometry_dofmap(mesh)[:n_cells, :3]
+        self.nodes = nodes
         x0 = x[nodes[:, 0]]
         J = np.stack([x[nodes[:, 1]] - x0, x[nodes[:, 2]] - x0], axis=2)  # (n, 2, 2): columns edges
         self.x0, self.J = x0, J
         self.Jinv = np.linalg.inv(J)
         self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, 4))
+        self.x0 = np.ascontiguousarray(self.x0)
+        self.quadrature_cache = {}  # degree -> Characteristics.quadrature_nodes in this geometry
+
+    @property
+    def neighbours(self) -> np.ndarray:
+        """(n_cells, 3): the local cell across the edge opposite each geometry node, −1 on the boundary
+        of the local mesh (the domain's, or the ghost layer's)."""
+        if self.mesh not in _NEIGHBOURS:
+            _NEIGHBOURS[self.mesh] = neighbour_table(self.nodes)
+        return _NEIGHBOURS[self.mesh]
 
     def dofs(self, V) -> np.ndarray:
         """Cell dof table of a space (cached per space)."""
         key = id(V)
         if key not in self._dofs:
-            self._dofs[key] = (V, compat.cell_dofs(V))
+            self._dofs[key] = (V, np.ascontiguousarray(compat.cell_dofs(V), dtype=np.int32))
         return self._dofs[key][1]
 
-    def _inside(self, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-        """Barycentric test: is each point in the given local cell?"""
+    def _inside(self, points: np.ndarray, cells: np.ndarray, owned_only: bool = False) -> np.ndarray:
+        """Barycentric test: is each point in the given local cell (and is the cell owned)?"""
         l1, l2 = barycentric(self, points, cells)
-        return np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
+        hit = np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
+        if owned_only:
+            hit &= cells < self.num_owned
+        return hit
+
+    def _limit(self, owned_only: bool) -> int:
+        """Cells at or above this index are not searched."""
+        return self.num_owned if owned_only else np.iinfo(np.int32).max
 
     def locate(self, points: np.ndarray, owned_only: bool = False, hint=None) -> np.ndarray:
         """Local cell index per point (−1 if none). ``points`` has shape (n, 3).
 
         ``hint``: a likely cell per point (e.g. the cell a foot started from), tested first; only the
-        points outside it go through the bounding-box tree.
+        points outside it go through the bounding-box tree (compiled: a walk through neighbouring cells
+        from the hint first; it finds the same cell unless the point is within the tolerance of an edge,
+        where both cells contain it).
         """
         cells = np.full(len(points), -1, dtype=np.int32)
         if len(points) == 0:
             return cells
+        if hint is not None and COMPILED:  # walk from the hint cell; the tree only where the walk fails
+            cells = _kernels.walk(np.ascontiguousarray(points), np.ascontiguousarray(hint, dtype=np.int32),
+                                  self.x0, self.Jinv_flat, self.neighbours, _TOL, self._limit(owned_only),
+                                  _WALK_STEPS)
+            rest = np.flatnonzero(cells < 0)
+            if len(rest):
+                cells[rest] = self.locate(points[rest], owned_only)
+            return cells
         if hint is not None:
-            hit = self._inside(points, hint)
-            if owned_only:
-                hit &= hint < self.num_owned
+            hit = self._inside(points, hint, owned_only)
             cells[hit] = hint[hit]
             rest = np.flatnonzero(~hit)
             cells[rest] = self.locate(points[rest], owned_only)
             return cells
         offsets, candidates = compat.collision_candidates(self.tree, points)
+        if COMPILED:
+            return _kernels.first_inside(np.ascontiguousarray(points), offsets, candidates, self.x0,
+                                         self.Jinv_flat, _TOL, self._limit(owned_only))
         counts = np.diff(offsets)
         point_of = np.repeat(np.arange(len(points)), counts)
         if owned_only:
@@ -98,6 +137,21 @@ class PointLocator:
         pts_in, first = np.unique(point_of[inside], return_index=True)
         cells[pts_in] = candidates[inside][first]
         return cells
+
+
+def neighbour_table(triangles: np.ndarray) -> np.ndarray:
+    """Cell neighbours across the edges of triangles given by node indices (n, 3): entry (c, i) is the
+    cell sharing the edge opposite node i of c, or −1."""
+    n = len(triangles)
+    a = triangles[:, [1, 2, 0]].astype(np.int64).ravel()
+    b = triangles[:, [2, 0, 1]].astype(np.int64).ravel()
+    key = np.minimum(a, b) * (int(triangles.max(initial=0)) + 1) + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    pair = np.flatnonzero(key[order][1:] == key[order][:-1])  # interior edges: two (cell, edge) entries
+    out = np.full(3 * n, -1, dtype=np.int32)
+    first, second = order[pair], order[pair + 1]
+    out[first], out[second] = second // 3, first // 3
+    return out.reshape(n, 3)
 
 
 def barycentric(locator: PointLocator, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -137,19 +191,30 @@ def is_p2(locator: PointLocator, f) -> bool:
     return locator.dofs(f.function_space).shape[1] == 6
 
 
+def _compiled_p2(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``combine(p2_basis(barycentric(...)))`` in one compiled pass (same operations, same order)."""
+    return _kernels.p2_values(np.ascontiguousarray(points), np.ascontiguousarray(cells, dtype=np.int32),
+                              locator.x0, locator.Jinv_flat, locator.dofs(f.function_space), f.x.array,
+                              f.function_space.dofmap.index_map_bs)
+
+
 def eval_at(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Values of ``f`` at points in known local cells, shape (n, value_size).
 
     P2 Lagrange fields on affine triangles (every field the characteristics transport) are evaluated
-    here, vectorised (``p2_basis``); anything else goes to dolfinx's Function.eval.
+    here, vectorised (``p2_basis``) or compiled; anything else goes to dolfinx's Function.eval.
     """
     if len(points) == 0 or not is_p2(locator, f):
         return f.eval(points, cells).reshape(len(points), -1)
+    if COMPILED:
+        return _compiled_p2(locator, f, points, cells)
     return combine(locator, f, p2_basis(*barycentric(locator, points, cells)), cells)
 
 
 def eval_many(locator: PointLocator, functions, points: np.ndarray, cells: np.ndarray) -> list[np.ndarray]:
     """``eval_at`` for several fields at the same points: the basis is computed once."""
+    if COMPILED:
+        return [eval_at(locator, f, points, cells) for f in functions]
     phi = p2_basis(*barycentric(locator, points, cells)) if len(points) else None
     return [combine(locator, f, phi, cells) if phi is not None and is_p2(locator, f)
             else eval_at(locator, f, points, cells) for f in functions]
@@ -188,12 +253,15 @@ def _evaluate_anywhere(locator, functions, pts, comm, hint=None):
 
     Returns (list of (n, size) arrays, found mask).
     """
-    values = [np.zeros((len(pts), _value_count(f))) for f in functions]
     cells = locator.locate(pts, hint=hint)
     found = cells >= 0
-    if found.any() and functions:
-        for val, v in zip(values, eval_many(locator, functions, pts[found], cells[found])):
-            val[found] = v
+    if COMPILED and all(is_p2(locator, f) for f in functions):  # all points in one pass, 0 where not found
+        values = [_compiled_p2(locator, f, pts, cells) for f in functions]
+    else:
+        values = [np.zeros((len(pts), _value_count(f))) for f in functions]
+        if found.any() and functions:
+            for val, v in zip(values, eval_many(locator, functions, pts[found], cells[found])):
+                val[found] = v
     lost = np.flatnonzero(~found)
     found[lost] = _remote_evaluate(locator, functions, pts[lost], values, lost, comm)
     return values, found
@@ -262,15 +330,24 @@ class Characteristics:
 
     def quadrature_nodes(self, degree: int, locator: PointLocator | None = None):
         """Quadrature points of the default rule of ``degree`` in every local cell, from the current
-        geometry (or that of ``locator``): (points (n_cells·nq, 3), their cells)."""
+        geometry (or that of ``locator``): (points (n_cells·nq, 3), their cells). Kept with the locator
+        until it is updated (read-only arrays)."""
         locator = locator or self.locator
+        if degree not in locator.quadrature_cache:
+            locator.quadrature_cache[degree] = self._quadrature_nodes(degree, locator)
+        return locator.quadrature_cache[degree]
+
+    @staticmethod
+    def _quadrature_nodes(degree: int, locator: PointLocator):
         ref = compat.quadrature_points(degree)
         x0, J = locator.x0, locator.J
         n_cells, nq = len(x0), len(ref)
         out = np.zeros((n_cells, nq, 3))
         for i in (0, 1):  # x_i = x0_i + J_i0 ξ + J_i1 η, written out (≈ 5× faster than an einsum)
             out[:, :, i] = x0[:, i, None] + J[:, i, 0, None] * ref[:, 0] + J[:, i, 1, None] * ref[:, 1]
-        return out.reshape(-1, 3), np.repeat(np.arange(n_cells, dtype=np.int32), nq)
+        points, cells = out.reshape(-1, 3), np.repeat(np.arange(n_cells, dtype=np.int32), nq)
+        points.flags.writeable = cells.flags.writeable = False
+        return points, cells
 
     def at_quadrature_nodes(self, f, degree: int) -> np.ndarray:
         """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference

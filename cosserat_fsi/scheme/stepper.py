@@ -26,7 +26,7 @@ import dolfinx.fem.petsc as fem_petsc
 import ufl
 from petsc4py import PETSc
 
-SCHEMES = {"characteristics1": 1, "characteristics2": 2}
+SCHEMES = {"characteristics1": 1, "characteristics2": 2, "steady": 1}  # steady: scheme/steady.py
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 

@@ -1,0 +1,130 @@
+"""How a run did, in words and numbers: the last lines a run prints, and the signal classification of summary.json.
+
+:func:`classify_signals` tells for each observable whether it is ``"steady"``, ``"periodic"`` (then with the
+periodic analysis: mean ± amplitude [frequency]) or ``"not periodic yet"``; only periodic signals get an
+analysis, so noise on a steady signal is not reported as an oscillation.
+
+:func:`verdict_lines` turns a summary into the lines printed at the end of ``cosserat-fsi run``: for a
+benchmark scene a table (quantity, value, reference, error, tolerance, pass/fail), then the headline
+observables (final value, or mean ± amplitude [frequency]) and the wall time.
+
+``TOLERANCES``: the relative tolerance of each benchmark quantity (the bands of campaigns/validate.py;
+periodic parts as ``"lift.amplitude"``). Quantities without one are shown but not judged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..analysis import periodic_analysis
+
+TOLERANCES = {
+    "schaefer_turek_2d1": {"c_D": 0.005, "c_L": 0.05, "dp": 0.01},
+    "turek_hron_cfd1": {"drag": 0.01, "lift": 0.05},
+    "turek_hron_cfd2": {"drag": 0.01, "lift": 0.05},
+    "turek_hron_cfd3": {"drag.mean": 0.01, "lift.amplitude": 0.05, "lift.frequency": 0.02},
+    "turek_hron_csm1": {"ux_A": 0.10, "uy_A": 0.05},
+    "turek_hron_csm2": {"ux_A": 0.10, "uy_A": 0.05},
+    "turek_hron_fsi1": {"uy_A": 0.05, "drag": 0.05},
+    "turek_hron_fsi3": {"uy_A.amplitude": 0.10, "uy_A.frequency": 0.05},
+    # exact solutions: absolute relative L² errors of the fields
+    "micropolar_poiseuille": {"velocity": 1e-3, "micro_rotation": 1e-3},
+    "micropolar_taylor_green": {"velocity": 1e-2, "micro_rotation": 1e-2},
+}
+
+STEADY_RTOL = 1e-4  # a signal whose last half varies by less than this fraction of its size is steady
+HEADLINE = ("drag", "lift", "dp", "ux_A", "uy_A", "flow_rate", "omega_max", "energy_total",
+            "velocity_error", "micro_rotation_error")
+
+
+def classify_signals(series: dict) -> tuple[dict, dict]:
+    """({observable: "steady" | "periodic" | "not periodic yet"}, {observable: periodic analysis})."""
+    signals, periodic = {}, {}
+    t = series.get("t")
+    for key, values in series.items():
+        if key == "t" or not len(values):
+            continue
+        y = np.asarray(values, dtype=float)
+        tail = y[len(y) // 2:]
+        scale = max(float(np.abs(y).max()), np.finfo(float).tiny)
+        if len(y) == 1 or (len(y) >= 3 and np.ptp(tail) <= STEADY_RTOL * scale):
+            signals[key] = "steady"  # one row: a steady solve
+            continue
+        analysis = periodic_analysis(t, y) if len(y) > 10 else {"method": None}
+        if analysis.get("method") in ("maxima", "fft"):
+            signals[key] = "periodic"
+            periodic[key] = analysis
+        else:
+            signals[key] = "not periodic yet"
+    return signals, periodic
+
+
+def _num(value) -> str:
+    return "–" if value is None else f"{value:.6g}"
+
+
+def _benchmark_rows(summary: dict) -> list[tuple]:
+    """(quantity, value, reference, error, tolerance, verdict) for each compared quantity."""
+    bench = summary.get("benchmark") or {}
+    name = bench.get("name")
+    tolerances = TOLERANCES.get(name, {})
+    exact = name in ("micropolar_poiseuille", "micropolar_taylor_green")
+    rows = []
+    for key, entry in bench.items():
+        if key == "name":
+            continue
+        parts = entry.items() if "value" not in entry else [(None, entry)]
+        for part, e in parts:
+            label = key if part is None else f"{key}.{part}"
+            tol = tolerances.get(label)
+            err = e.get("error")
+            if exact:
+                error_text = f"{err:.2e}" if err is not None else "–"
+            else:
+                error_text = f"{100 * err:+.3f} %" if err is not None else "–"
+            if tol is None or err is None:
+                verdict = "–"
+            else:
+                verdict = "pass" if abs(err) <= tol else "FAIL"
+            tol_text = "–" if tol is None else (f"{tol:.0e}" if exact else f"{100 * tol:g} %")
+            rows.append((label, _num(e.get("value")), _num(e.get("reference")), error_text, tol_text, verdict))
+    return rows
+
+
+def _table(header: tuple, rows: list[tuple]) -> list[str]:
+    widths = [max(len(str(r[i])) for r in [header] + rows) for i in range(len(header))]
+    fmt = "  ".join("{:<%d}" % w for w in widths)
+    return [fmt.format(*header), fmt.format(*("-" * w for w in widths))] + [fmt.format(*r) for r in rows]
+
+
+def verdict_lines(summary: dict) -> list[str]:
+    """The closing lines of a run: benchmark table, headline observables, wall time."""
+    lines = []
+    rows = _benchmark_rows(summary)
+    if rows:
+        bench = summary["benchmark"]["name"]
+        judged = [r for r in rows if r[5] != "–"]
+        ok = all(r[5] == "pass" for r in judged)
+        lines.append(f"benchmark {bench}: " + (("PASS" if ok else "FAIL") + f" ({sum(r[5] == 'pass' for r in judged)}"
+                                                 f"/{len(judged)} within tolerance)" if judged else "no tolerances"))
+        lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), rows)
+    final, periodic, signals = summary.get("final", {}), summary.get("periodic", {}), summary.get("signals", {})
+    parts = []
+    for key in HEADLINE:
+        if key not in final:
+            continue
+        a = periodic.get(key) if isinstance(periodic, dict) else None
+        if a and a.get("frequency"):
+            parts.append(f"{key} = {a['mean']:.6g} ± {a['amplitude']:.4g} [{a['frequency']:.4g} Hz]")
+        else:
+            state = signals.get(key, "")
+            parts.append(f"{key} = {final[key]:.6g}" + (f" ({state})" if state and state != "steady" else ""))
+    if parts:
+        lines.append("result: " + ", ".join(parts))
+    wall = summary.get("wall_time", {})
+    time = summary.get("time", {})
+    how = (f"steady (Newton, {summary['newton']['iterations']} iterations)" if "newton" in summary
+           else f"{time.get('steps')} steps of {time.get('dt')} to t = {time.get('t_final', 0):.6g}")
+    lines.append(f"status: {summary.get('status')}; {how}; wall time {wall.get('total', 0):.2f} s "
+                 f"(setup {wall.get('setup', 0):.2f} s); {summary.get('ranks', 1)} rank(s)")
+    return lines

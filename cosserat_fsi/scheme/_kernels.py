@@ -1,0 +1,135 @@
+"""Compiled (numba) kernels of the characteristics: barycentric point-in-cell tests and P2 evaluation.
+
+Each kernel does, point by point, the same floating-point operations in the same order as the numpy
+reference in characteristics.py (``barycentric``, ``p2_basis``, ``combine``: products and sums written
+out, no fast-math, no FMA contraction), so both paths give the same numbers. ``ENABLED`` is False when
+numba cannot be imported or ``COSSERAT_FSI_NO_NUMBA=1``; characteristics.py then uses numpy.
+
+Compiled code is cached on disk (``cache=True``): in ``__pycache__`` next to this file, or, when the
+package is installed read-only, in ``$NUMBA_CACHE_DIR`` (default here: ``<tmp>/cosserat_fsi-numba``).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+_pycache = os.path.join(os.path.dirname(os.path.abspath(__file__)), "__pycache__")
+if "NUMBA_CACHE_DIR" not in os.environ and not os.access(
+        _pycache if os.path.isdir(_pycache) else os.path.dirname(_pycache), os.W_OK):
+    # installed read-only (numba's own fallback, ~/.cache/numba, fails without a writable home)
+    os.environ["NUMBA_CACHE_DIR"] = os.path.join(tempfile.gettempdir(), "cosserat_fsi-numba")
+
+ENABLED = os.environ.get("COSSERAT_FSI_NO_NUMBA", "0") in ("", "0")
+try:
+    if not ENABLED:
+        raise ImportError
+    import numba
+except ImportError:  # the numpy path of characteristics.py is used
+    numba = None
+    ENABLED = False
+
+if numba is not None and os.environ.get("NUMBA_CACHE_DIR") and not numba.config.CACHE_DIR:
+    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]  # numba was imported before the variable was set
+
+
+def _jit(fn):
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn) if numba is not None else fn
+
+
+@_jit
+def first_inside(points, offsets, candidates, x0, Jinv, tol, cell_limit):
+    """Per point, the first candidate cell (offsets/candidates: a CSR list per point) below
+    ``cell_limit`` whose barycentric test passes (min(λ0, λ1, λ2) ≥ −tol), else −1."""
+    n = points.shape[0]
+    cells = np.full(n, -1, dtype=np.int32)
+    for i in range(n):
+        px, py = points[i, 0], points[i, 1]
+        for j in range(offsets[i], offsets[i + 1]):
+            c = candidates[j]
+            if c >= cell_limit:
+                continue
+            dx, dy = px - x0[c, 0], py - x0[c, 1]
+            l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+            l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+            if min(min(l1, l2), 1.0 - l1 - l2) >= -tol:
+                cells[i] = c
+                break
+    return cells
+
+
+@_jit
+def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
+    """Per point, a cell containing it found by walking from ``start`` (the hint cell) towards it:
+    test the barycentric coordinates (min(λ0, λ1, λ2) ≥ −tol: found), else cross the edge opposite the
+    most negative λ_i into ``neighbours[c, i]``. −1 when the walk reaches a boundary of the local mesh
+    (domain or ghost layer), does not arrive within ``max_steps`` or ends in a cell at or above
+    ``cell_limit``: the caller then asks the bounding-box tree. The first test (in the hint cell) is
+    the numpy path's hint test."""
+    n = points.shape[0]
+    cells = np.full(n, -1, dtype=np.int32)
+    for i in range(n):
+        c = start[i]
+        px, py = points[i, 0], points[i, 1]
+        for _ in range(max_steps):
+            dx, dy = px - x0[c, 0], py - x0[c, 1]
+            l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+            l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+            l0 = 1.0 - l1 - l2
+            if min(min(l1, l2), l0) >= -tol:
+                if c < cell_limit:
+                    cells[i] = c
+                break
+            k = 0 if l0 <= l1 and l0 <= l2 else (1 if l1 <= l2 else 2)
+            c = neighbours[c, k]
+            if c < 0:
+                break
+    return cells
+
+
+@_jit
+def p2_values(points, cells, x0, Jinv, dofs, values, bs):
+    """Values (n, bs) of the P2 field with local coefficients ``values`` (flat, blocked by ``bs``) at
+    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``characteristics.p2_basis``, summed in k order.
+    Zeros where the cell is −1."""
+    n = points.shape[0]
+    out = np.zeros((n, bs))
+    phi = np.empty(6)
+    for i in range(n):
+        c = cells[i]
+        if c < 0:
+            continue
+        dx, dy = points[i, 0] - x0[c, 0], points[i, 1] - x0[c, 1]
+        l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+        l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+        l0 = 1.0 - l1 - l2
+        phi[0] = l0 * (2 * l0 - 1)
+        phi[1] = l1 * (2 * l1 - 1)
+        phi[2] = l2 * (2 * l2 - 1)
+        phi[3] = 4 * l1 * l2
+        phi[4] = 4 * l0 * l2
+        phi[5] = 4 * l0 * l1
+        for b in range(bs):
+            s = 0.0
+            for k in range(6):
+                s += phi[k] * values[dofs[c, k] * bs + b]
+            out[i, b] = s
+    return out
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) every kernel for the argument types characteristics.py passes
+    (writeable and read-only point and cell arrays: quadrature nodes are read-only)."""
+    if not ENABLED:
+        return
+    x0, Jinv = np.zeros((1, 2)), np.array([[1.0, 0.0, 0.0, 1.0]])
+    neighbours, dofs = np.full((1, 3), -1, dtype=np.int32), np.zeros((1, 6), dtype=np.int32)
+    for readonly in (False, True):
+        pts, cells = np.zeros((1, 3)), np.zeros(1, dtype=np.int32)
+        pts.flags.writeable = cells.flags.writeable = not readonly
+        for offsets in (np.array([0, 1], dtype=np.int32), np.array([0, 1], dtype=np.int64)):
+            first_inside(pts, offsets, np.zeros(1, dtype=np.int32), x0, Jinv, 1e-10, 1)
+        walk(pts, cells, x0, Jinv, neighbours, 1e-10, 1, 8)
+        p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6), 1)
