@@ -1,4 +1,4 @@
-"""Run one scene: mesh → stepper → observables → outputs (the CLI contract of `cosserat-fsi run`).
+"""Run one scene: mesh → simulation → observables → outputs (the CLI contract of `cosserat-fsi run`).
 
 Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
 summary.json (and run.log through the CLI's logging).
@@ -29,7 +29,7 @@ from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
-from ..scheme.steady import make_stepper
+from ..simulation import Simulation
 from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
@@ -55,7 +55,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then stop the run (:class:`Interrupted`).
 
     Order (docs/reliability.md): read and check the checkpoint and every file of the folder, build the
-    mesh and the stepper, and only then ``commit()`` (rank 0: the CLI removes an overwritten run and
+    mesh and the simulation, and only then ``commit()`` (rank 0: the CLI removes an overwritten run and
     starts run.log) and write. A failure before the commit leaves the folder as it was; after it,
     summary.json says ``completed``, ``diverged``, ``interrupted`` or ``failed``. Every rank-0-only step
     shares its outcome with the other ranks (``parallel``).
@@ -68,13 +68,13 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     if restart:
         meta, state = agree(comm, read_checkpoint, out_dir, comm, fingerprint)
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
-    _signal_handlers(handlers)
-    n_vertices = mesh.topology.index_map(0).size_global
-    stepper = make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
-    observables = Observables(stepper)  # on the reference mesh (point A is found there)
     _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
+    n_vertices = mesh.topology.index_map(0).size_global
+    sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
+    observables = Observables(sim)  # on the reference mesh (point A is found there)
+    _signal_handlers(handlers)
     if restart:
-        agree(comm, stepper.restore, state)
+        agree(comm, sim.restore, state)
         on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
                 scene.output.fields)
 
@@ -85,26 +85,47 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
 
     on_root(comm, start, step="commit")
     if restart:
-        log.info("restart from the checkpoint of step %d (t = %.6g)", stepper.step_count, stepper.t)
+        log.info("restart from the checkpoint of step %d (t = %.6g)", sim.step_count, sim.t)
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
              mesh.topology.index_map(mesh.topology.dim).size_global)
-    log.info("model: %s", stepper.model.describe())
-    log.info("dofs: %s", stepper.num_dofs())
+    log.info("model: %s", sim.model.describe())
+    log.info("dofs: %s", sim.num_dofs())
     setup_time = time.perf_counter() - wall0
 
     steady = scene.time.scheme == "steady"
-    n_steps = 1 if steady else int(round(scene.time.t_end / scene.time.dt))
+    n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
-    series = fields = bar = None
+    series = fields = bar = stop = None
     earlier_field_steps = meta["field_steps"] if restart else 0
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
 
     def checkpoint():
-        with stepper.timers("checkpoint"):
-            write_checkpoint(out_dir, stepper, comm, {
-                "fingerprint": fingerprint, "rows": stepper.step_count,
+        with sim.timers("checkpoint"):
+            write_checkpoint(out_dir, sim, comm, {
+                "fingerprint": fingerprint, "rows": sim.step_count,
                 "field_steps": fields.num_steps if fields is not None else earlier_field_steps})
+
+    def observe(sim):  # after the solve, on the mesh the step was solved on
+        failpoint("observe")  # the fault suite's fault inside a collective step (MPI_Abort path)
+        with sim.timers("observables"):
+            series.write(sim.t, observables.evaluate())
+
+    def after_step(sim):
+        k = sim.step_count
+        if fields is not None and (steady or k % every == 0):
+            with sim.timers("output"):
+                _write_fields(fields, sim)
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
+        signum = _step_end(comm, stop, series)
+        if signum:
+            checkpoint()
+            raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
+                              f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
+        if every_ck and k % every_ck == 0 and k < n_steps:
+            checkpoint()
 
     try:
         series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
@@ -114,34 +135,12 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                                     keep_steps=earlier_field_steps if restart and earlier_field_steps else None)
         bar = _progress_bar(n_steps, progress and comm.rank == 0)
         if bar is not None:
-            bar.update(stepper.step_count)
+            bar.update(sim.step_count)
         with _StopSignals() as stop:
             if fields is not None and fields.num_steps == 0 and not steady:
-                _write_fields(fields, stepper)
-
-            def observe():  # after the solve, on the mesh the step was solved on
-                failpoint("observe")  # the fault suite's fault inside a collective step (MPI_Abort path)
-                with stepper.timers("observables"):
-                    series.write(stepper.t, observables.evaluate())
-
-            for k in range(stepper.step_count, n_steps):
-                stepper.advance(before_move=observe)
-                if fields is not None and (steady or (k + 1) % every == 0):
-                    with stepper.timers("output"):
-                        _write_fields(fields, stepper)
-                if bar is not None:
-                    bar.update(1)
-                    bar.set_postfix_str(f"t={stepper.t:.4g}", refresh=False)
-                signum = _step_end(comm, stop, series)
-                if signum:
-                    checkpoint()
-                    raise Interrupted(f"signal {signum} at step {stepper.step_count} (t = {stepper.t:.6g}): "
-                                      f"checkpoint written; resume with `cosserat-fsi run CONFIG --restart "
-                                      f"{out_dir}`", signum)
-                if every_ck and (k + 1) % every_ck == 0 and k + 1 < n_steps:
-                    checkpoint()
-            if steady:
-                stepper.check()  # a Newton that did not converge: exit 3 after the outputs
+                _write_fields(fields, sim)
+            sim.run(n_steps, observers=[observe], after_step=[after_step])
+            sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
         series.close()
         share(comm, series.error)
     except BaseException as exc:
@@ -158,7 +157,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         if fields is not None:
             fields.close()
         if status != "local":
-            summary = _write_summary(scene, stepper, out_dir, n_vertices, setup_time,
+            summary = _write_summary(scene, sim, out_dir, n_vertices, setup_time,
                                      time.perf_counter() - wall0, status, message, comm)
     return summary
 
@@ -175,24 +174,26 @@ def _status_of(exc: BaseException) -> tuple[str, str]:
 
 
 def _step_end(comm, stop, series) -> int:
-    """End of a step, on every rank: a failed row write on rank 0 (disk full) is raised everywhere; else
-    the largest signal number any rank received (0: none)."""
+    """End of a step, on every rank: a failed row write (disk full) is raised everywhere; else the largest
+    signal number any rank received (0: none)."""
     error = series.error
-    signum, failed = comm.allreduce((stop.signum, error is not None), op=MPI.MAX) if comm.size > 1 else \
-        (stop.signum, error is not None)
+    if comm.size > 1:
+        signum, failed = comm.allreduce((stop.signum, error is not None), op=MPI.MAX)
+    else:
+        signum, failed = stop.signum, error is not None
     if failed:
         share(comm, error)
     return signum
 
 
-def _write_summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict | None:
+def _write_summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict | None:
     """summary.json, written whatever ended the run; its own failure does not hide the run's."""
     import sys
 
     running = sys.exc_info()[1]
     try:
-        return _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm)
-    except BaseException as exc:  # noqa: BLE001
+        return _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm)
+    except BaseException as exc:
         if running is None:
             raise
         log.error("summary.json not written: %s", exc)
@@ -242,24 +243,24 @@ def _progress_bar(total: int, enabled: bool):
     return tqdm(total=total, unit="step", dynamic_ncols=True, mininterval=0.5)
 
 
-def _write_fields(fields, stepper):
-    point = {"velocity": stepper.u_n, "pressure": stepper.p_n}
-    if stepper.model.micro_rotation:
-        point["micro_rotation"] = stepper.omega_n
-    if stepper.model.solid:
-        point["displacement"] = stepper.d_n
+def _write_fields(fields, sim):
+    point = {"velocity": sim.velocity, "pressure": sim.pressure}
+    if sim.model.micro_rotation:
+        point["micro_rotation"] = sim.micro_rotation
+    if sim.model.solid:
+        point["displacement"] = sim.displacement
     cells = None
-    if stepper.cell_tags is not None:
-        n_owned = compat.num_owned_cells(stepper.mesh)
+    if sim.cell_tags is not None:
+        n_owned = compat.num_owned_cells(sim.mesh)
         marker = np.zeros(n_owned)
-        ct = stepper.cell_tags
+        ct = sim.cell_tags
         owned = ct.indices < n_owned
         marker[ct.indices[owned]] = ct.values[owned]
         cells = {"subdomain": marker}
-    fields.write(stepper.t, point, cells)
+    fields.write(sim.t, point, cells)
 
 
-def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
+def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
     """summary.json: versions, sizes, timings, peak memory, periodic analysis, comparison with the reference."""
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB (Linux reports KiB)
     memory = {"peak_rss_mib_max_rank": comm.allreduce(rss, op=MPI.MAX),
@@ -267,10 +268,10 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
 
     def build_and_write():  # rank 0
         try:
-            series = read_timeseries(out_dir / "timeseries.csv") if stepper.step_count else {}
+            series = read_timeseries(out_dir / "timeseries.csv") if sim.step_count else {}
         except (OSError, InputError):  # a write that failed (disk full) may have left it short
             series = {}
-        steps = max(stepper.step_count, 1)
+        steps = max(sim.step_count, 1)
         summary = {
             "scene": scene.name,
             "status": status,
@@ -278,19 +279,19 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "versions": {"cosserat_fsi": __version__, **compat.versions()},
             "ranks": comm.size,
             "mesh": {"geometry": scene.geometry.name, "level": scene.geometry.level, "vertices": n_vertices},
-            "model": stepper.model.describe(),
-            "dofs": stepper.num_dofs(),
-            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": stepper.step_count,
-                     "t_final": stepper.t},
+            "model": sim.model.describe(),
+            "dofs": sim.num_dofs(),
+            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": sim.step_count,
+                     "t_final": sim.t},
             "memory": memory,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
-                          "phases": dict(stepper.timers.totals)},
+                          "phases": dict(sim.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
         }
         # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
         summary["signals"], summary["periodic"] = classify_signals(series)
-        if getattr(stepper, "report", None) is not None:  # steady solve: Newton's iterations and residuals
-            summary["newton"] = stepper.report.as_dict()
+        if sim.report is not None:  # steady solve: Newton's iterations and residuals
+            summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
@@ -299,17 +300,6 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
         return summary
 
     return on_root(comm, build_and_write, step="summary")
-
-
-def _periodic(series: dict) -> dict:
-    """Periodic analysis of every observable that oscillates (over its last full periods)."""
-    out = {}
-    for key, values in series.items():
-        if key != "t" and len(values) > 10:
-            analysis = periodic_analysis(series["t"], values)
-            if analysis.get("method") not in (None, "constant"):
-                out[key] = analysis
-    return out
 
 
 def compare_with_reference(scene, summary: dict) -> dict:

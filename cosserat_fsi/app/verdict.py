@@ -63,7 +63,7 @@ def _num(value) -> str:
     return "–" if value is None else f"{value:.6g}"
 
 
-def _benchmark_rows(summary: dict) -> list[tuple]:
+def benchmark_rows(summary: dict) -> list[tuple]:
     """(quantity, value, reference, error, tolerance, verdict) for each compared quantity."""
     bench = summary.get("benchmark") or {}
     name = bench.get("name")
@@ -93,14 +93,14 @@ def _benchmark_rows(summary: dict) -> list[tuple]:
 
 def _table(header: tuple, rows: list[tuple]) -> list[str]:
     widths = [max(len(str(r[i])) for r in [header] + rows) for i in range(len(header))]
-    fmt = "  ".join("{:<%d}" % w for w in widths)
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
     return [fmt.format(*header), fmt.format(*("-" * w for w in widths))] + [fmt.format(*r) for r in rows]
 
 
 def verdict_lines(summary: dict) -> list[str]:
     """The closing lines of a run: benchmark table, headline observables, wall time."""
     lines = []
-    rows = _benchmark_rows(summary)
+    rows = benchmark_rows(summary)
     if rows:
         bench = summary["benchmark"]["name"]
         judged = [r for r in rows if r[5] != "–"]

@@ -1,4 +1,4 @@
-"""Checkpoints: the stepper's full state, one .npz per rank, plus meta.json (rank 0).
+"""Checkpoints: the full state of a Simulation, one .npz per rank, plus meta.json (rank 0).
 
 ``<run>/checkpoint/`` is replaced atomically (written to ``checkpoint.tmp`` and renamed), so a kill
 while writing leaves the previous checkpoint intact. Each rank stores its owned dofs keyed by their
@@ -33,7 +33,7 @@ def scene_fingerprint(scene) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def write_checkpoint(run_dir: Path, stepper, comm, meta: dict) -> None:
+def write_checkpoint(run_dir: Path, sim, comm, meta: dict) -> None:
     """Write the state of every rank and ``meta`` (+ step, t, ranks) into run_dir/checkpoint.
 
     Collective; a failure on any rank (disk full) is raised on every rank (``parallel``), and the
@@ -55,14 +55,14 @@ def write_checkpoint(run_dir: Path, stepper, comm, meta: dict) -> None:
         try:
             failpoint("checkpoint.rank")
             with open(path, "wb") as f:
-                np.savez(f, **stepper.state())
+                np.savez(f, **sim.checkpoint())
                 f.flush()
                 os.fsync(f.fileno())
         except OSError as exc:
             raise output_error(path, exc) from None
 
     def finish():
-        full = {"format": FORMAT, "ranks": comm.size, "step": stepper.step_count, "t": stepper.t, **meta}
+        full = {"format": FORMAT, "ranks": comm.size, "step": sim.step_count, "t": sim.t, **meta}
         atomic_write_text(tmp / "meta.json", json.dumps(full, indent=2))
         old = run_dir / "checkpoint.old"
         try:

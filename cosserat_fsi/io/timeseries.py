@@ -75,7 +75,7 @@ class TimeSeriesWriter:
             return
         row = [t, *(values.get(c, math.nan) for c in self.columns)]
         try:
-            self.file.write(",".join("%.10e" % float(v) for v in row) + "\n")
+            self.file.write(",".join(f"{float(v):.10e}" for v in row) + "\n")
             self.file.flush()
         except OSError as exc:
             from .runfolder import output_error

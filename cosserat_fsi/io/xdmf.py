@@ -16,7 +16,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from cosserat_fsi import compat  # noqa: F401  (before dolfinx)
+from cosserat_fsi import compat  # before dolfinx
 from cosserat_fsi.errors import InputError, OutputError
 from cosserat_fsi.io.runfolder import atomic_write_text
 from cosserat_fsi.parallel import failpoint, on_root, share
