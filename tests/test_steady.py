@@ -115,3 +115,9 @@ def test_continuation_in_the_convection_reaches_the_full_reynolds_number(repo_ro
     assert proc.returncode == 0, proc.stderr
     assert s["newton"]["converged"] and s["newton"]["stages"] == [1.0, 0.25, 0.5, 1.0]
     assert abs(s["benchmark"]["drag"]["error"] + 0.0033) < 5e-4
+
+
+def test_steady_micropolar_fsi_is_refused_not_silently_classical(repo_root, tmp_path):
+    proc, s, _ = _run(repo_root, tmp_path, "turek_hron_fsi1.yaml", "geometry.level=0", "micropolar.mu_r=0.5")
+    assert proc.returncode == 2 and s is None
+    assert proc.stderr.strip().splitlines()[-1].startswith("error: time.scheme: steady is not available")
