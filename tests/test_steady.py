@@ -101,6 +101,8 @@ def test_verdict_lines_judge_each_quantity():
                              "lift": {"value": 1.12, "reference": 1.119, "error": 0.0009}}}
     lines = verdict_lines(summary)
     assert lines[0] == "benchmark turek_hron_cfd1: FAIL (1/2 within tolerance)"
+    periodic = dict(summary, benchmark={"name": "turek_hron_cfd3"}, signals={"drag": "not periodic yet"})
+    assert "drag.mean (not periodic yet)" in "\n".join(verdict_lines(periodic))
     assert lines[3].split()[0] == "drag" and lines[3].split()[-1] == "FAIL"
     assert lines[4].split()[-1] == "pass"
     assert lines[-2] == "result: drag = 14, lift = 1.2"
