@@ -1,7 +1,8 @@
 # cosserat-fsi: installation, runs and tests on two dolfinx stacks.
 #
 #   make run      set up the Debian stack (.venv) and run one scene        (SCENE=, OUT=, NP=, STACK=)
-#   make test     set up both stacks, then run the test suite on each, serial and under 2 MPI ranks
+#   make test     set up both stacks, ruff check, then the test suite on each, serial and under 2 MPI ranks
+#   make test-fast  the fast tier (-m "not slow", < 2 min per stack; STACK=debian|latest), for everyday work
 #
 # Idempotent: each venv carries a stamp file named after a hash of its install recipe and of
 # pyproject.toml; pip runs only when that stamp is missing. The apt step checks with dpkg first and
@@ -32,12 +33,12 @@ VENV := .venv
 # pull a second numpy into the venv that shadows the one dolfinx 0.5.2 was built against (checked below).
 # Debian's python3-numba 0.56.4 works too, but drags in scipy and compiles differently from the latest stack.
 NUMBA_PIN := numba==0.68.1 llvmlite==0.50.0
-PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista $(NUMBA_PIN)
+PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista ruff $(NUMBA_PIN)
 MPIRUN_DEBIAN := mpirun --allow-run-as-root --oversubscribe
 
 # ------------------------------------------------------------------------------------ latest stack
 VENV_LATEST := .venv-latest
-PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest $(NUMBA_PIN)
+PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest ruff $(NUMBA_PIN)
 PYENV_ROOT ?= $(HOME)/.pyenv
 # A Python >= 3.12: pyenv's newest 3.12.x, else python3.12 on PATH. Override: make setup-latest PYTHON_LATEST=...
 PYTHON_LATEST ?= $(or $(shell ls -d $(PYENV_ROOT)/versions/3.12*/bin/python3 2>/dev/null | sort -V | tail -n 1),$(shell command -v python3.12 2>/dev/null))
@@ -72,11 +73,12 @@ PYTEST_FLAGS := -q -rs --durations=15
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
 .PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
-        test-mpi-latest validate sweep-c1 figures extremes study info clean distclean
+        test-mpi-latest test-fast lint validate sweep-c1 figures extremes study info clean distclean
 
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
-	@echo "make test    both stacks: serial pytest, then -m mpi under 2 ranks"
+	@echo "make test    both stacks: ruff, serial pytest, then -m mpi under 2 ranks"
+	@echo "make test-fast [STACK=debian|latest]   pytest -m 'not slow' (everyday work)"
 	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | extremes | study | clean | distclean"
 
 # ------------------------------------------------------------------------------------ setup
@@ -140,7 +142,14 @@ run: $(RUN_SETUP)
 # Every step runs even if an earlier one fails (-k); make exits non-zero if any failed.
 # pytest's exit code 5 ("no tests collected") is a failure here on purpose.
 test: setup setup-latest
-	@$(MAKE) --no-print-directory -k test-debian test-latest test-mpi
+	@$(MAKE) --no-print-directory -k lint test-debian test-latest test-mpi
+
+lint: setup
+	@echo "=== ruff check ==="
+	$(VENV)/bin/ruff check .
+
+test-fast: $(RUN_SETUP)
+	$(PY) -m pytest $(PYTEST_FLAGS) -m "not slow"
 
 test-debian: setup
 	@echo "=== pytest: Debian stack (dolfinx 0.5.2, serial) ==="

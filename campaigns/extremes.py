@@ -109,7 +109,8 @@ def write_report(runs: Path, out: Path) -> Path:
                     f"{WHY.get(case_id, '')} |")
     lines = ["# Extremes", "",
              "Written by `make extremes` (`python campaigns/extremes.py`). Each case is "
-             f"`{CONFIG}` on the coarsest mesh with `{' '.join(app_cases.override(k, v) for k, v in BASE.items())}` and one "
+             f"`{CONFIG}` on the coarsest mesh with "
+             f"`{' '.join(app_cases.override(k, v) for k, v in BASE.items())}` and one "
              "parameter pushed to an extreme. *ok* means: completed with finite energy below "
              f"{ENERGY_BOUND:g} × ½ ρ_f Ū² |channel| (the scale column divides by that), or stopped with exit "
              "code 3 and a `diverged:` message naming when and where — never a silent NaN.", "", *rows, ""]

@@ -6,8 +6,8 @@
 Each case is a short `cosserat-fsi run` (level 0 or the seed mesh, a few tens of steps, fields off) of a
 shipped config; the set covers 2D-1, CFD3 with both schemes, FSI3 first order and BDF2, a Cosserat FSI3,
 CSM1, micropolar Poiseuille, a restart and 2 MPI ranks (the steady shipped configs with their former time
-stepping pinned: 2D-1, CSM1 and Poiseuille are now solved by Newton when run as shipped). ``check`` compares every column of timeseries.csv
-with the recorded one: |a − b| <= RTOL · max|b| over the column (+ 1e-14), RTOL = 1e-10.
+stepping pinned: 2D-1, CSM1 and Poiseuille are now solved by Newton when run as shipped). ``check`` compares
+every column of timeseries.csv with the recorded one: |a − b| <= RTOL · max|b| over the column (+ 1e-14), RTOL = 1e-10.
 tests/test_regression.py runs ``check`` on a few cases in CI.
 """
 

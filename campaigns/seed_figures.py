@@ -244,7 +244,8 @@ def write_report(runs: Path, out: Path) -> Path:
              "δt = 0.005, c₁ = 10⁶ (μ_s = 2·10⁶), ρ_s = ρ_f = 1000, μ = 1, Ū = 2, t ∈ [0, 8]. "
              "The seed does not print its micropolar coefficients; ours are μ_r = 0.1 and 0.5 (μ = 1), "
              "λ₁ = 10⁻⁴ (μ ℓ², ℓ = 1 cm), I = 10⁻⁴ m² (and 10⁻²), ω = 0 on all walls. "
-             "Amplitude and frequency of uy(A) are over the last full period (t ≤ 8); drag mean over the last second.", "",
+             "Amplitude and frequency of uy(A) are over the last full period (t ≤ 8); drag mean over the last "
+             "second.", "",
              *rows, ""]
     if c1_rows:
         lines += ["c₁ sweep (seed figs. 5–6, `make sweep-c1`, same settings):", "",
@@ -272,7 +273,8 @@ def _statements(tips: dict, runs: Path) -> list[str]:
         swing = [uy[max(0, k - window):k + 1].ptp() for k in range(len(t))]
         onset = next((float(tt) for tt, sw in zip(t, swing) if sw > 2e-3), None)
         out.append(f"- *\"Karman vortex street around t ∼ 2\"*: at the seed's settings the wake is still "
-                   f"symmetric at t = 2.5 (fig. 7); the tip's peak-to-peak swing first exceeds 2 mm at t = {_fmt(onset, '.2f')} s and "
+                   f"symmetric at t = 2.5 (fig. 7); the tip's peak-to-peak swing first exceeds 2 mm at "
+                   f"t = {_fmt(onset, '.2f')} s and "
                    f"the oscillation saturates near t ≈ 7 (figs. 3–4, and the t = 7, 7.1 s rows of fig. 7). "
                    f"The first-order characteristics' numerical viscosity (≈ U²δt/2 ≈ 10 ν at δt = 0.005, "
                    f"docs/validation.md CFD3) delays the instability; the seed's figure may come from a "
@@ -281,7 +283,7 @@ def _statements(tips: dict, runs: Path) -> list[str]:
     amps = [(c1, a) for c1, a in amps if a is not None]
     if len(amps) >= 2:
         falling = all(a2 <= a1 for (_, a1), (_, a2) in zip(amps, amps[1:]))
-        out.append(f"- *\"amplitude decreases with increasing c₁\"* (figs. 5–6): "
+        out.append("- *\"amplitude decreases with increasing c₁\"* (figs. 5–6): "
                    + ", ".join(f"{1e3 * a:.1f} mm at c₁ = {c1:.3g}" for c1, a in amps)
                    + (" — monotone, as the seed says." if falling else _peak_note(amps)))
     m01, m05 = tips.get("seedfig-mur0.1-I1e-4") or {}, tips.get("seedfig-mur0.5-I1e-4") or {}

@@ -17,6 +17,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from cosserat_fsi.app import cases as app_cases
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -83,15 +85,18 @@ CSM = {"ux_A": 0.10, "uy_A": 0.05}
 FSI1 = {"uy_A": 0.05, "drag": 0.05}
 FSI3 = {"uy_A.amplitude": 0.10, "uy_A.frequency": 0.05}
 SEED = {"uy_A.amplitude": 0.25, "uy_A.frequency": 0.10}
+# the shipped CSM and FSI1 scenes are steady (Newton); these cases keep the seed's time stepping
+CSM_STEPPING = {"time.scheme": "characteristics1", "time.dt": 0.005, "time.t_end": 8.0}
+FSI1_STEPPING = {"time.scheme": "characteristics1", "time.dt": 0.01, "time.t_end": 15.0}
 FSI_CASES = [
-    Case("csm1-L1", "configs/turek_hron_csm1.yaml", {}, CSM),
-    Case("csm1-L1-eq", "configs/turek_hron_csm1.yaml", {"solid.mu_s": 0.5e6 * EQ}, CSM,
+    Case("csm1-L1", "configs/turek_hron_csm1.yaml", {**CSM_STEPPING}, CSM),
+    Case("csm1-L1-eq", "configs/turek_hron_csm1.yaml", {**CSM_STEPPING, "solid.mu_s": 0.5e6 * EQ}, CSM,
          "CSM1 with the bending-equivalent shear modulus μ_s = 0.4167e6"),
-    Case("csm2-L1", "configs/turek_hron_csm2.yaml", {}, CSM),
-    Case("csm2-L1-eq", "configs/turek_hron_csm2.yaml", {"solid.mu_s": 2.0e6 * EQ}, CSM,
+    Case("csm2-L1", "configs/turek_hron_csm2.yaml", {**CSM_STEPPING}, CSM),
+    Case("csm2-L1-eq", "configs/turek_hron_csm2.yaml", {**CSM_STEPPING, "solid.mu_s": 2.0e6 * EQ}, CSM,
          "CSM2 with the bending-equivalent μ_s = 1.667e6"),
-    Case("fsi1-L1-dt0.01", "configs/turek_hron_fsi1.yaml", {}, FSI1),
-    Case("fsi1-L1-dt0.01-eq", "configs/turek_hron_fsi1.yaml", {"solid.mu_s": 0.5e6 * EQ}, FSI1,
+    Case("fsi1-L1-dt0.01", "configs/turek_hron_fsi1.yaml", {**FSI1_STEPPING}, FSI1),
+    Case("fsi1-L1-dt0.01-eq", "configs/turek_hron_fsi1.yaml", {**FSI1_STEPPING, "solid.mu_s": 0.5e6 * EQ}, FSI1,
          "FSI1 with the bending-equivalent μ_s = 0.4167e6"),
     Case("fsi3-seed-dt0.005", "configs/seed_fsi3.yaml", {"benchmark": "turek_hron_fsi3"}, FSI3,
          "the seed's settings (its mesh, δt = 0.005) against Turek–Hron FSI3"),
@@ -117,6 +122,21 @@ FSI_CASES = [
          "d += δt u on the solid nodes and the lifting from the reference operator it runs to t = 8; the "
          "oscillation only starts at t ≈ 4.6 (first-order numerical viscosity) and saturates by t ≈ 7"),
 ]
+# Steady scenes by Newton (time.scheme: steady): the level ladders of 2D-1 and FSI1, and the other steady scenes
+STEADY = {"time.scheme": "steady"}
+STEADY_CASES = (
+    [Case(f"st2d1-L{level}-steady", "configs/schaefer_turek_2d1.yaml", {**STEADY, "geometry.level": level}, ST21)
+     for level in range(4)]
+    + [Case("cfd1-L1-steady", "configs/turek_hron_cfd1.yaml", {**STEADY, "geometry.level": 1}, CFD12),
+       Case("cfd2-L1-steady", "configs/turek_hron_cfd2.yaml", {**STEADY, "geometry.level": 1}, CFD12),
+       Case("csm1-L1-steady", "configs/turek_hron_csm1.yaml", {**STEADY, "geometry.level": 1}, CSM),
+       Case("csm2-L1-steady", "configs/turek_hron_csm2.yaml", {**STEADY, "geometry.level": 1}, CSM)]
+    + [Case(f"fsi1-L{level}-steady", "configs/turek_hron_fsi1.yaml", {**STEADY, "geometry.level": level},
+            {**FSI1, "ux_A": 0.05, "lift": 0.05}) for level in range(4)]
+)
+LADDERS = {"st2d1": ("c_D", "c_L", "dp"), "fsi1": ("drag", "lift", "ux_A", "uy_A")}
+
+
 # Seed figures 5–6: amplitude of uy(A) against the solid parameter c₁ (μ_s = 2 c₁), the seed's settings,
 # run to t = 14 (at t = 8 the softer flags are still growing)
 C1_VALUES = (0.5e6, 0.75e6, 1.0e6, 1.5e6, 2.0e6)
@@ -125,9 +145,37 @@ SWEEP_CASES = [Case(f"c1sweep-{c1:.3g}", "configs/seed_fsi3.yaml", {"solid.mu_s"
 _FIRST = ("st2d1-L1-c2-dt0.01", "st2d1-L2-c2-dt0.01", "cfd1-L1-c2-dt0.02", "cfd2-L1-c2-dt0.005",
           "cfd2-L1-c2-dt0.0025", "cfd3-seed-c1-dt0.005", "cfd3-seed-c2-dt0.005", "cfd3-L1-c2-dt0.0025",
           "cfd3-seed-c1-dt0.001", "cfd3-L1-c2-dt0.001", "csm1-L1-eq", "csm2-L1-eq", "fsi1-L1-dt0.01", "seed-dt0.005",
-          "fsi3-seed-dt0.002", "fsi3-seed-dt0.001", "fsi3-L1-dt0.002", "fsi3-L1-dt0.001")  # the cheapest complete ladder first; the rest after
-_ALL = CASES + FSI_CASES + SWEEP_CASES
+          "fsi3-seed-dt0.002", "fsi3-seed-dt0.001", "fsi3-L1-dt0.002", "fsi3-L1-dt0.001")
+# the cheapest complete ladder first; the rest after
+_ALL = CASES + FSI_CASES + STEADY_CASES + SWEEP_CASES
 ALL_CASES = [c for i in _FIRST for c in _ALL if c.id == i] + [c for c in _ALL if c.id not in _FIRST]
+
+
+STEADY_NOTES = """\
+2D-1 by Newton: c_D converges with observed order 2.1, 1.8, 2.9 (L0→L3: −0.29, −0.067, −0.019, −0.0025 %);
+c_L and Δp are within 0.3 % and 0.01 % from L2 on, where their errors change sign (L3: c_L +0.26 %, Δp
+−0.006 %: the pressure probes and the small lift plateau). The shipped 2D-1 (L2) takes 3.0 s of run wall
+time, 4.2 s for the whole process, with a warm form and mesh cache on an idle machine; a cold cache (forms
+compiled, mesh generated) adds 3.9 s (8.1 s against 4.3 s warm, both measured with the 2 cores shared at a
+load of 4.5); the time-stepped run it replaces (3,000 first-order steps to
+t = 30 on L1) took 106 s and missed c_D by +1.5 %. Wall times in the tables above were measured with other
+jobs on the 2 cores. 1 and 2 ranks give the same forces and tip displacements to the 11 digits of
+timeseries.csv (tests/test_steady.py, FSI1), on both stacks.
+
+Steady scenes (`time.scheme: steady`, cosserat_fsi/scheme/steady.py, steady_solid.py): Newton on the steady
+residual (the time-continuous residual of seed eqs. 31-32 with the accelerations (u·∇)u and (u·∇)ω), MUMPS, from
+the Stokes iterate; continuation in the convection or the load when Newton from there fails (none of the
+shipped scenes needs it). CSM1/CSM2: static Newton on the reference mesh, P = J σ F⁻ᵀ with the same law
+σ = −pI + μ_s(I − B⁻¹); they agree with the time-stepping runs `csm1-L1`/`csm2-L1` to 0.6 % in 1 s instead
+of 110 s; the gap to the reference is the law (incompressible vs St. Venant–Kirchhoff ν = 0.4), unchanged
+from L1 to L3 (uy(A) +17.16, +17.10, +17.07 %). FSI1: one monolithic Newton solve for (u, d, p) on the
+reference mesh, the fluid in ALE form on the cells moved by d (4 s on L1 against 331 s for
+`fsi1-L1-dt0.01`, whose steady state also carries the scheme's O(δt) error). Its uy(A) moves with the mesh
+(+4.5, −3.6, −6.9 % on L1–L3) because the one continuous P1 pressure of the seed's discretisation ties the
+solid's pressure to the fluid's on the interface, which softens the flag when it is a few cells thick;
+with a separate P0 solid pressure (an experiment, not shipped) uy(A) is −8.4/−10.1 % on L1/L2, on its way to
+the stiffer incompressible law's deflection: the +2.8 % of `fsi1-L1-dt0.01` and the +4.5 % here are partly
+a cancellation of that softening against the law's extra stiffness."""
 
 
 def run_case(case: Case, runs: Path, python: str | None = None, fields: bool = False) -> Path:
@@ -161,7 +209,8 @@ def previous_rows(report: Path) -> dict[str, list[str]]:
 
 def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
     previous = previous or {}
-    rows = ["| case | mesh (vertices) | scheme | δt | observable | value | reference | error | tolerance | ok | wall (s) | s/step |",
+    rows = ["| case | mesh (vertices) | scheme | δt | observable | value | reference | error | tolerance | ok "
+            "| wall (s) | s/step |",
             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for case in cases:
         path = runs / case.id / "summary.json"
@@ -170,19 +219,48 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
             continue
         s = json.loads(path.read_text())
         mesh = f"L{s['mesh']['level']} ({s['mesh']['vertices']:,})"
-        scheme = "BDF2" if s["time"]["scheme"] == "characteristics2" else "1st order"
+        scheme = {"characteristics2": "BDF2", "steady": "steady"}.get(s["time"]["scheme"], "1st order")
+        dt = "–" if s["time"]["scheme"] == "steady" else s["time"]["dt"]
         status = "" if s["status"] == "completed" else f" ({s['status']})"
         for key, tol in case.tolerances.items():
             m = measured(s, key)
             if not m or m.get("value") is None:
-                rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {s['time']['dt']} | {key} | – | | | "
+                rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {dt} | {key} | – | | | "
                             f"{tol:.1%} | no | {s['wall_time']['total']:.0f} | {s['wall_time']['per_step']:.3f} |")
                 continue
             err = (m["value"] - m["reference"]) / abs(m["reference"]) if m["reference"] else None
             ok = err is not None and abs(err) <= tol
-            rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {s['time']['dt']} | {key} | {m['value']:.6g} | "
-                        f"{m['reference']:.6g} | {'–' if err is None else format(err, '+.2%')} | {tol:.1%} | {'yes' if ok else 'no'} | "
+            rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {dt} | {key} | {m['value']:.6g} | "
+                        f"{m['reference']:.6g} | {'–' if err is None else format(err, '+.2%')} | {tol:.1%} | "
+                        f"{'yes' if ok else 'no'} | "
                         f"{s['wall_time']['total']:.0f} | {s['wall_time']['per_step']:.3f} |")
+    return rows
+
+
+def steady_ladder(runs: Path, group: str, keys: tuple) -> list[str]:
+    """Errors of the steady ``<group>-L<level>-steady`` runs per level and the observed order
+    log2(e_l / e_{l+1}) (the mesh size halves per level); Newton iterations and wall time."""
+    found = []
+    for level in range(8):
+        path = runs / f"{group}-L{level}-steady" / "summary.json"
+        if path.exists():
+            found.append((level, json.loads(path.read_text())))
+    if not found:
+        return []
+    rows = ["| level (vertices) | " + " | ".join(f"{k} error | order" for k in keys) + " | Newton it. | wall (s) |",
+            "|---|" + "---|---|" * len(keys) + "---|---|"]
+    previous = None
+    for level, s in found:
+        errors = [(measured(s, k) or {}).get("error") for k in keys]
+        cells = []
+        for i, e in enumerate(errors):
+            order = "–"
+            if previous is not None and e and previous[i]:
+                order = f"{np.log2(abs(previous[i]) / abs(e)):.2f}"
+            cells += ["–" if e is None else f"{e:+.4%}", order]
+        rows.append(f"| L{level} ({s['mesh']['vertices']:,}) | " + " | ".join(cells)
+                    + f" | {s.get('newton', {}).get('iterations', '–')} | {s['wall_time']['total']:.1f} |")
+        previous = errors
     return rows
 
 
@@ -224,6 +302,12 @@ def _save(fig, out: Path, name: str) -> str:
     return str(path.relative_to(out))
 
 
+def _existing(out: Path, name: str) -> str | None:
+    """An earlier figure (its runs' time series are not kept in a checkout: only their summary.json)."""
+    path = out / "figures" / name
+    return str(path.relative_to(out)) if path.exists() else None
+
+
 def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     import matplotlib
 
@@ -238,14 +322,14 @@ def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     drawn = False
     for case in cases:
         csv = runs / case.id / "timeseries.csv"
-        if case.id.startswith("cfd3") and (runs / case.id / "summary.json").exists():
+        if case.id.startswith("cfd3") and csv.exists():
             ts = read_timeseries(csv)
             keep = ts["t"] >= ts["t"][-1] - 1.0
             ax.plot(ts["t"][keep], ts["lift"][keep], label=case.id, lw=1)
             drawn = True
     if not drawn:
         plt.close(fig)
-        return None
+        return _existing(out, "cfd3_lift.png")
     lo, hi = ref["mean"] - ref["amplitude"], ref["mean"] + ref["amplitude"]
     ax.axhspan(lo, hi, color="0.85", zorder=0, label="Turek–Hron CFD3 lift range")
     ax.set_xlabel("t (s)")
@@ -266,9 +350,9 @@ def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -
     from cosserat_fsi.references import reference_for
 
     series = [(c.id, runs / c.id / "timeseries.csv") for c in cases if c.id.startswith(prefix)]
-    series = [(i, p) for i, p in series if (p.parent / "summary.json").exists()]
+    series = [(i, p) for i, p in series if p.exists()]
     if not series:
-        return None
+        return _existing(out, name)
     ref = reference_for("turek_hron_fsi3")["uy_A"]
     fig, (ax, zoom) = plt.subplots(1, 2, figsize=(13, 4), gridspec_kw={"width_ratios": [2, 1]})
     for label, csv in series:
@@ -298,9 +382,9 @@ def plot_c1_sweep(runs: Path, out: Path) -> str | None:
     from cosserat_fsi.io import read_timeseries
 
     done = [(c1, runs / f"c1sweep-{c1:.3g}" / "timeseries.csv") for c1 in C1_VALUES]
-    done = [(c1, p) for c1, p in done if (p.parent / "summary.json").exists()]
+    done = [(c1, p) for c1, p in done if p.exists()]
     if not done:
-        return None
+        return _existing(out, "seed_fig5_6_c1_sweep.png")
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
     amps = []
     for c1, csv in done:
@@ -344,6 +428,12 @@ def write_report(cases, runs: Path, out: Path) -> Path:
     for case in cases:
         if case.note:
             lines.append(f"- `{case.id}`: {case.note}")
+    for group, keys in LADDERS.items():
+        ladder = steady_ladder(runs, group, keys)
+        if ladder:
+            lines += ["", f"Steady {group} by Newton, level ladder (relative errors; order = log2 of the error "
+                      "ratio of consecutive levels, h halves per level):", "", *ladder]
+    lines += ["", STEADY_NOTES]
     lines += ["", "Cosserat FSI (seed figures 3–10) and the physics sanity check (Navier–Stokes with μ and with "
               "μ + μ_r bracket the micropolar fluid): [seed_reproduction.md](seed_reproduction.md) (`make figures`). "
               "Stability at the extremes: [extremes.md](extremes.md) (`make extremes`)."]

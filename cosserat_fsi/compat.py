@@ -133,7 +133,7 @@ def quadrature_space(mesh, degree: int, shape: tuple = ()):
     return dolfinx.fem.FunctionSpace(mesh, el)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def quadrature_points(degree: int) -> np.ndarray:
     """Reference points (triangle) of the default rule of ``degree``, in the order of quadrature_space."""
     import basix

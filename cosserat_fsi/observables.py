@@ -15,7 +15,7 @@ from .physics.stress import body_traction, cauchy_stress
 from .exact import EXACT_BENCHMARKS
 from .scheme.characteristics import probe
 from .physics.solid import elastic_energy_density
-from .scheme.stepper import FLUID, SOLID, TAGS
+from .tags import FACET_TAGS, FLUID, SOLID
 
 import dolfinx
 import ufl
@@ -27,53 +27,50 @@ POINT_A = {"turek_hron": (0.6, 0.2), "flag": None}  # flag: (length, thickness/2
 
 
 class Observables:
-    """Evaluates the observables of a scene from the stepper's current state."""
+    """Evaluates the observables of a scene from the current state of a :class:`~cosserat_fsi.simulation.Simulation`."""
 
-    def __init__(self, stepper):
-        self.stepper = stepper
-        self.comm = stepper.comm
-        scene = stepper.scene
-        mesh = stepper.mesh
-        ft = stepper.facet_tags
-        sp = stepper.space
-        parts = ufl.split(stepper.w)
-        u, p = parts[sp.index("velocity")], parts[sp.index("pressure")]
-        omega = parts[sp.index("micro_rotation")] if stepper.model.micro_rotation else None
-        mu_r = stepper.mu_r if stepper.model.micro_rotation else None
-        T = cauchy_stress(u, p, stepper.mu, mu_r, omega)
+    def __init__(self, sim):
+        self.sim = sim
+        self.comm = sim.comm
+        scene = sim.scene
+        mesh = sim.mesh
+        ft = sim.facet_tags
+        problem = sim.problem
+        u, p, omega = sim.split_solution()
+        T = cauchy_stress(u, p, problem.mu, problem.mu_r, omega)
         n = ufl.FacetNormal(mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft)
-        body_tags = tuple(TAGS[b] for b in BODY
-                          if self.comm.allreduce(int(np.any(ft.values == TAGS[b])), op=MPI.MAX))
+        body_tags = tuple(FACET_TAGS[b] for b in BODY
+                          if self.comm.allreduce(int(np.any(ft.values == FACET_TAGS[b])), op=MPI.MAX))
         self.columns = []
         self._force_forms = None
         if body_tags and scene.has_fluid:
-            self._force_forms = _force_forms(stepper, u, T, n, ds, body_tags)
+            self._force_forms = _force_forms(sim, u, T, n, ds, body_tags)
             self.columns += ["drag", "lift", "drag_surface", "lift_surface"]
         self._node_A = None
-        if stepper.model.solid and scene.geometry.name in POINT_A:
-            self._node_A = _owned_node(stepper, _point_A(stepper))
+        if sim.model.solid and scene.geometry.name in POINT_A:
+            self._node_A = _owned_node(sim, _point_A(sim))
             self.columns += ["ux_A", "uy_A"]
         self._energy_forms = None
-        if stepper.model.solid:
-            dx = ufl.dx(domain=mesh, subdomain_data=stepper.cell_tags)
-            kinetic = 0.5 * stepper.rho * ufl.inner(u, u) * dx
-            elastic = elastic_energy_density(stepper.d_n, stepper.mu_s) * dx(SOLID)
+        if sim.model.solid:
+            dx = ufl.dx(domain=mesh, subdomain_data=sim.cell_tags)
+            kinetic = 0.5 * problem.rho * ufl.inner(u, u) * dx
+            elastic = elastic_energy_density(sim.displacement, problem.mu_s) * dx(SOLID)
             self._energy_forms = [compat.form(kinetic), compat.form(elastic)]
             self.columns += ["energy_kinetic", "energy_elastic", "energy_total"]
         self._flow_rate = None
-        outlet = TAGS["outlet"]
+        outlet = FACET_TAGS["outlet"]
         if scene.has_fluid and self.comm.allreduce(int(np.any(ft.values == outlet)), op=MPI.MAX):
             self._flow_rate = compat.form(ufl.inner(u, n) * ds(outlet))  # ∫_outlet u·n ds
             self.columns.append("flow_rate")
         self._dp = scene.geometry.name == "schaefer_turek"
         if self._dp:
             self.columns.append("dp")
-        if stepper.model.micro_rotation:
+        if sim.model.micro_rotation:
             self.columns.append("omega_max")
         self._exact = None
-        if scene.benchmark in EXACT_BENCHMARKS and stepper.exact is not None:
-            self._exact = _exact_error_forms(stepper)
+        if scene.benchmark in EXACT_BENCHMARKS and sim.exact is not None:
+            self._exact = _exact_error_forms(sim)
             self.columns += [f"{name}_error" for name in self._exact]
 
     def evaluate(self) -> dict:
@@ -82,7 +79,7 @@ class Observables:
             forces = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._force_forms]
             out.update(zip(("drag", "lift", "drag_surface", "lift_surface"), forces))
         if self._node_A is not None:
-            d = self.stepper.d_n.x.array.reshape(-1, 2)
+            d = self.sim.displacement.x.array.reshape(-1, 2)
             local = d[self._node_A] if self._node_A >= 0 else np.zeros(2)
             out["ux_A"], out["uy_A"] = self.comm.allreduce(local, op=MPI.SUM)
         if self._energy_forms is not None:
@@ -92,14 +89,13 @@ class Observables:
         if self._flow_rate is not None:
             out["flow_rate"] = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._flow_rate), op=MPI.SUM)
         if self._dp:
-            st = self.stepper
-            p = probe(st.chars.locator, [st.p_n], DP_POINTS, self.comm)[0][:, 0]
+            p = probe(self.sim.locator, [self.sim.pressure], DP_POINTS, self.comm)[0][:, 0]
             out["dp"] = float(p[0] - p[1])
-        if self.stepper.model.micro_rotation:
-            local = np.abs(self.stepper.omega_n.x.array).max(initial=0.0)
+        if self.sim.model.micro_rotation:
+            local = np.abs(self.sim.micro_rotation.x.array).max(initial=0.0)
             out["omega_max"] = self.comm.allreduce(local, op=MPI.MAX)
         if self._exact is not None:
-            t = self.stepper.t
+            t = self.sim.t
             for name, (field, interpolate, error, norm) in self._exact.items():
                 field.interpolate(interpolate(t))
                 e, n = (self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in (error, norm))
@@ -107,14 +103,14 @@ class Observables:
         return out
 
 
-def _exact_error_forms(stepper) -> dict:
+def _exact_error_forms(sim) -> dict:
     """{name: (P4 field, t -> interpolation callable, form ‖f_h − f‖², form ‖f‖²)} for the relative L²
     errors against the scene's exact solution (the exact field interpolated in P4: its own error is
     O(h⁵), far below the P2 solution's O(h³))."""
-    mesh, exact = stepper.mesh, stepper.exact
-    pairs = [("velocity", stepper.u_n, (2,), exact.velocity)]
-    if stepper.model.micro_rotation:
-        pairs.append(("micro_rotation", stepper.omega_n, None, exact.micro_rotation))
+    mesh, exact = sim.mesh, sim.exact
+    pairs = [("velocity", sim.velocity, (2,), exact.velocity)]
+    if sim.model.micro_rotation:
+        pairs.append(("micro_rotation", sim.micro_rotation, None, exact.micro_rotation))
     out = {}
     for name, numerical, shape, formula in pairs:
         field = dolfinx.fem.Function(compat.function_space(mesh, "Lagrange", 4, shape=shape))
@@ -124,55 +120,55 @@ def _exact_error_forms(stepper) -> dict:
     return out
 
 
-def _point_A(stepper):
+def _point_A(sim):
     """Point A: the flag's tip (0.6, 0.2) for Turek–Hron; (length, thickness/2) for the flag alone."""
-    if stepper.scene.geometry.name == "turek_hron":
+    if sim.scene.geometry.name == "turek_hron":
         return np.array(POINT_A["turek_hron"])
-    x = stepper.mesh.geometry.x
-    xmax = stepper.comm.allreduce(x[:, 0].max(), op=MPI.MAX)
-    ymax = stepper.comm.allreduce(x[:, 1].max(), op=MPI.MAX)
+    x = sim.mesh.geometry.x
+    xmax = sim.comm.allreduce(x[:, 0].max(), op=MPI.MAX)
+    ymax = sim.comm.allreduce(x[:, 1].max(), op=MPI.MAX)
     return np.array([xmax, 0.5 * ymax])
 
 
-def _owned_node(stepper, point):
+def _owned_node(sim, point):
     """Local index of the owned velocity node at ``point`` (a mesh vertex), or −1 on other ranks."""
-    V = stepper.u_n.function_space
+    V = sim.velocity.function_space
     n_owned = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:n_owned, :2]
     dist = np.linalg.norm(x - point, axis=1) if n_owned else np.array([np.inf])
     i = int(np.argmin(dist))
     found = bool(dist[i] < 1e-10)
-    if stepper.comm.allreduce(int(found), op=MPI.SUM) != 1:
+    if sim.comm.allreduce(int(found), op=MPI.SUM) != 1:
         raise RuntimeError(f"point A {tuple(point)} is not a vertex of the mesh")
     return i if found else -1
 
 
-def _force_forms(stepper, u, T, n, ds, body_tags):
+def _force_forms(sim, u, T, n, ds, body_tags):
     """Forms for (drag, lift) by the residual method and by the surface integral of −T n, fluid side.
 
     With a solid flag the fluid–solid interface is interior: its traction is taken from the fluid cell
     (χ_f = 1 on fluid cells), and the cylinder arc that clamps the flag is left out the same way.
     """
-    phis = _body_test_functions(stepper, body_tags)
+    phis = _body_test_functions(sim, body_tags)
     traction = body_traction(T, n)
-    if not stepper.model.solid:
-        residual = _momentum_residual(stepper, u, T, ufl.dx(domain=stepper.mesh))
+    if not sim.model.solid:
+        residual = _momentum_residual(sim, u, T, ufl.dx(domain=sim.mesh))
         surface = [traction[i] * ds(body_tags) for i in range(2)]
     else:
-        chi = stepper.cellwise(1.0, 0.0)  # fluid indicator
-        dx_fluid = ufl.dx(domain=stepper.mesh, subdomain_data=stepper.cell_tags)(FLUID)
-        residual = _momentum_residual(stepper, u, T, dx_fluid)
-        dS = ufl.Measure("dS", domain=stepper.mesh, subdomain_data=stepper.facet_tags)(TAGS["interface"])
-        surface = [chi * traction[i] * ds(TAGS["cylinder"])
+        chi = sim.problem.cellwise(1.0, 0.0)  # fluid indicator
+        dx_fluid = ufl.dx(domain=sim.mesh, subdomain_data=sim.cell_tags)(FLUID)
+        residual = _momentum_residual(sim, u, T, dx_fluid)
+        dS = ufl.Measure("dS", domain=sim.mesh, subdomain_data=sim.facet_tags)(FACET_TAGS["interface"])
+        surface = [chi * traction[i] * ds(FACET_TAGS["cylinder"])
                    + (chi("+") * traction[i]("+") + chi("-") * traction[i]("-")) * dS for i in range(2)]
     return [compat.form(-residual(phi)) for phi in phis] + [compat.form(f) for f in surface]
 
 
-def _body_test_functions(stepper, body_tags):
+def _body_test_functions(sim, body_tags):
     """φ_x, φ_y: P2 fields equal to e_x, e_y on the body's boundary nodes and 0 at all other nodes."""
-    V = stepper.space.space("velocity")
-    fdim = stepper.mesh.topology.dim - 1
-    facets = stepper.facets(*(name for name, tag in TAGS.items() if tag in body_tags))
+    V = sim.velocity.function_space
+    fdim = sim.mesh.topology.dim - 1
+    facets = sim.problem.facets(*(name for name, tag in FACET_TAGS.items() if tag in body_tags))
     phis = []
     for i in range(2):
         Vi, to_V = compat.collapse(V.sub(i))
@@ -183,7 +179,7 @@ def _body_test_functions(stepper, body_tags):
     return phis
 
 
-def _momentum_residual(stepper, u, T, dx):
+def _momentum_residual(sim, u, T, dx):
     """φ ↦ the momentum residual (eq. 20 stress form) of the step just taken, with the scheme's acceleration.
 
     With φ = e_i on the body and 0 elsewhere it equals ∫_body T n·e_i ds (n out of the fluid), so
@@ -191,13 +187,13 @@ def _momentum_residual(stepper, u, T, dx):
     faster than the surface integral of T n.
     """
     if dx.subdomain_id() != "everywhere":  # restricted to the fluid cells
-        dxi = stepper.dx_inertia(subdomain_data=stepper.cell_tags)(dx.subdomain_id())
+        dxi = sim.dx_inertia(subdomain_data=sim.cell_tags)(dx.subdomain_id())
     else:
-        dxi = stepper.dx_inertia
+        dxi = sim.dx_inertia
 
     def residual(phi):
-        return fluid.cauchy_momentum_residual(T, phi, rho=stepper.rho, acceleration=stepper.acceleration(u),
-                                              body_force=stepper.f, dx=dx, dx_inertia=dxi)
+        return fluid.cauchy_momentum_residual(T, phi, rho=sim.problem.rho, acceleration=sim.acceleration(u),
+                                              body_force=sim.problem.body_force, dx=dx, dx_inertia=dxi)
 
     return residual
 

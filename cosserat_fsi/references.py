@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import copy
 import re
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 
 from cosserat_fsi.config import GEOMETRY_OF_BENCHMARK, yaml_load
@@ -16,7 +16,7 @@ from cosserat_fsi.config import GEOMETRY_OF_BENCHMARK, yaml_load
 _PERIODIC = re.compile(r"^\s*(\S+)\s*\+-\s*(\S+)\s*\[\s*(\S+)\s*\]\s*$")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _references() -> dict:
     text = resources.files("cosserat_fsi").joinpath("data/benchmarks.yaml").read_text(encoding="utf-8")
     return yaml_load(text)

@@ -1,4 +1,7 @@
-"""Shared pytest fixtures for both dolfinx stacks.
+"""Shared pytest fixtures and helpers for both dolfinx stacks.
+
+``run_cli(*args)`` (a fixture) runs ``python -m cosserat_fsi ARGS`` in a subprocess with a clean environment;
+``mpirun(n)`` gives the MPI launcher matching this interpreter; ``repo_root`` and ``mpi_comm`` are what they say.
 
 ``cosserat_fsi.compat`` is imported first: on the PyPI wheel stack it imports ``dolfinx_solver``
 before ``dolfinx``. Nothing heavy is imported here otherwise; mpi4py is imported lazily by the
@@ -80,6 +83,40 @@ def _find_launcher() -> tuple[list[str] | None, str]:
     return None, "unknown MPI library: " + lib.splitlines()[0]
 
 
+_MPI_VARIABLES = ("OMPI_COMM_WORLD", "OMPI_MCA_ess", "OMPI_MCA_orte", "PMIX_", "PMI_", "HYDRA_")
+
+
+def subprocess_env() -> dict[str, str]:
+    """``os.environ`` without this process's MPI launcher variables (a child would take itself for one of
+    our ranks; a nested OpenMPI ``mpirun`` exits 1 without a word), one BLAS/OpenMP thread, root allowed."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_VARIABLES)}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    return env
+
+
+class _Cli:
+    """``run_cli(*args, launcher=(), cwd=None, timeout=600)``: ``python -m cosserat_fsi ARGS`` in a subprocess
+    (under ``launcher``, e.g. ``mpirun(2)``), output captured as text. ``run_cli.command(*args)`` and
+    ``run_cli.env`` are the pieces, for a ``subprocess.Popen`` that a test signals."""
+
+    env = property(lambda self: subprocess_env())
+
+    @staticmethod
+    def command(*args) -> list[str]:
+        return [sys.executable, "-m", "cosserat_fsi", *map(str, args)]
+
+    def __call__(self, *args, launcher=(), cwd=None, timeout: float = 600) -> subprocess.CompletedProcess:
+        return subprocess.run([*launcher, *self.command(*args)], capture_output=True, text=True, cwd=cwd,
+                              env=self.env, timeout=timeout)
+
+
+@pytest.fixture(scope="session")
+def run_cli() -> _Cli:
+    """Runs the command line in a subprocess (see ``_Cli``)."""
+    return _Cli()
+
+
 class _MpiRun:
     """``mpirun(n)`` returns the command prefix that starts ``n`` ranks with this interpreter's MPI.
 
@@ -98,11 +135,7 @@ class _MpiRun:
 
     @property
     def env(self) -> dict[str, str]:
-        drop = ("OMPI_COMM_WORLD", "OMPI_MCA_ess", "OMPI_MCA_orte", "PMIX_", "PMI_", "HYDRA_")
-        env = {k: v for k, v in os.environ.items() if not k.startswith(drop)}
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
-        return env
+        return subprocess_env()
 
     def run(self, n: int, args: list[str], timeout: float = 600, **kwargs) -> subprocess.CompletedProcess:
         """``subprocess.run(mpirun(n) + args)`` with the right environment, text output captured."""

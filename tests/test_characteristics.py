@@ -49,8 +49,9 @@ def test_neighbour_table():
 def test_compiled_backtracking_equals_numpy(tmp_path, monkeypatch):
     """The numba kernels locate the same cells and give the same values as the numpy reference, on the
     feet of a BDF2-like step (hint cells, feet in other cells, on other ranks, outside the domain and
-    pulled back), at the P2 nodes (on edges and vertices: ties between cells) and for probes: cells identical, values equal to round-off (the kernels repeat the
-    numpy operations in the same order, so in practice bit for bit). Serial and under 2 ranks."""
+    pulled back), at the P2 nodes (on edges and vertices: ties between cells) and for probes: cells identical,
+    values equal to round-off (the kernels repeat the numpy operations in the same order, so in practice bit
+    for bit). Serial and under 2 ranks."""
     if not _kernels.ENABLED:
         pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1): no compiled path to compare")
     comm = MPI.COMM_WORLD

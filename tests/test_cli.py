@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import subprocess
 import sys
 import types
 from pathlib import Path
@@ -15,11 +14,6 @@ from cosserat_fsi.errors import DivergenceError
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "configs" / "turek_hron_cfd1.yaml"
-
-
-def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "cosserat_fsi", *map(str, args)],
-                          capture_output=True, text=True, cwd=cwd, timeout=120)
 
 
 @pytest.fixture
@@ -41,7 +35,7 @@ BAD_RUNS = {
 
 
 @pytest.mark.parametrize("extra, expected", BAD_RUNS.values(), ids=BAD_RUNS)
-def test_bad_run_input_exits_2_with_one_line(out_dir, extra, expected):
+def test_bad_run_input_exits_2_with_one_line(run_cli, out_dir, extra, expected):
     result = run_cli("run", CONFIG, "--out", out_dir, *extra)
     assert result.returncode == 2
     assert "Traceback" not in result.stderr
@@ -59,7 +53,7 @@ def test_bad_run_input_exits_2_with_one_line(out_dir, extra, expected):
     ([], "error: cosserat-fsi: the following arguments are required: command"),
     (["mesh", "config.yaml"], "error: config.yaml: line 2: could not parse YAML"),
 ])
-def test_usage_and_file_errors_exit_2(tmp_path, args, expected):
+def test_usage_and_file_errors_exit_2(run_cli, tmp_path, args, expected):
     (tmp_path / "config.yaml").write_text("fluid: [\n")
     result = run_cli(*args, cwd=tmp_path)
     assert (result.returncode, len(result.stderr.splitlines())) == (2, 1), result.stderr
@@ -68,7 +62,7 @@ def test_usage_and_file_errors_exit_2(tmp_path, args, expected):
     assert not (tmp_path / "runs").exists()
 
 
-def test_unwritable_out_exits_2_naming_out(tmp_path):
+def test_unwritable_out_exits_2_naming_out(run_cli, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     result = run_cli("run", CONFIG, "--out", blocker / "sub")
@@ -77,7 +71,7 @@ def test_unwritable_out_exits_2_naming_out(tmp_path):
     assert blocker.read_text() == "not a directory"
 
 
-def test_info_prints_versions():
+def test_info_prints_versions(run_cli):
     pytest.importorskip("cosserat_fsi.compat")
     import dolfinx
 

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,18 +11,17 @@ from mpi4py import MPI
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.app.runner import load_mesh
-from cosserat_fsi.scheme.stepper import Stepper
+from cosserat_fsi.simulation import Simulation
 
 
 def _run(scene, comm=MPI.COMM_WORLD, **kwargs):
     mesh, ct, ft, _ = load_mesh(scene, comm)
-    stepper = Stepper(scene, mesh, ct, ft, comm, **kwargs)
-    obs = Observables(stepper)
+    sim = Simulation(scene, mesh, ct, ft, comm, **kwargs)
+    obs = Observables(sim)
     rows = []
-    for _ in range(int(round(scene.time.t_end / scene.time.dt))):
-        stepper.advance(before_move=lambda: rows.append({"t": stepper.t, **obs.evaluate()}))
+    sim.run(sim.steps_to(scene.time.t_end), observers=[lambda sim: rows.append({"t": sim.t, **obs.evaluate()})])
     series = {k: np.array([r[k] for r in rows]) for k in rows[0]} if rows else {}
-    return stepper, series
+    return sim, series
 
 
 class Uniform:
@@ -46,9 +43,9 @@ def test_free_stream_is_preserved_under_mesh_motion():
     """A uniform flow stays uniform to round-off on a mesh that moves independently of the flow."""
     scene = validate_scene({"geometry": {"name": "square", "level": 1}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "time": {"dt": 0.01, "t_end": 0.2}})
-    stepper, _ = _run(scene, exact=Uniform(), prescribed_motion=_wobble)
-    u = stepper.u_n.x.array.reshape(-1, 2)
-    assert stepper.motion.displacement.x.array.std() > 0  # the mesh did move
+    sim, _ = _run(scene, exact=Uniform(), prescribed_motion=_wobble)
+    u = sim.velocity.x.array.reshape(-1, 2)
+    assert sim.motion.displacement.x.array.std() > 0  # the mesh did move
     assert np.abs(u - Uniform.U).max() < 1e-10
 
 
@@ -63,16 +60,17 @@ def _taylor_green_error(scheme, dt, motion):
     scene = validate_scene({"geometry": {"name": "square", "level": 2, "length": float(np.pi)},
                             "fluid": {"rho": 1.0, "mu": 0.1}, "time": {"dt": dt, "t_end": T, "scheme": scheme}})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
-    stepper = Stepper(scene, mesh, ct, ft, exact=exact, prescribed_motion=motion)
-    n, error = int(round(T / dt)), []
+    sim = Simulation(scene, mesh, ct, ft, exact=exact, prescribed_motion=motion)
+    n, error = sim.steps_to(T), []
 
-    def measure():
-        u_exact = dolfinx.fem.Function(stepper.u_n.function_space)
+    def measure(sim):
+        if sim.step_count < n:
+            return
+        u_exact = dolfinx.fem.Function(sim.velocity.function_space)
         u_exact.interpolate(lambda x: exact.velocity(x, T))
-        error.append(_l2(stepper, stepper.u_n - u_exact))
+        error.append(_l2(sim, sim.velocity - u_exact))
 
-    for k in range(n):
-        stepper.advance(before_move=measure if k == n - 1 else None)
+    sim.run(n, observers=[measure])
     return error[0]
 
 
@@ -82,6 +80,7 @@ def _tg_wobble(X, t):
     return 0.25 * np.sin(2 * np.pi * t)[None] * np.column_stack([bump, -bump * X[:, 0] / np.pi])
 
 
+@pytest.mark.slow
 def test_bdf2_on_a_moving_mesh_is_second_order():
     """BDF2 characteristics on a mesh that moves independently of the flow: the Taylor–Green errors equal
     the fixed-mesh ones (measured: 1.1478e-2, 2.553e-3, 5.99e-4 for δt = 0.2, 0.1, 0.05 on both; rates
@@ -95,6 +94,7 @@ def test_bdf2_on_a_moving_mesh_is_second_order():
     assert np.allclose(moving, fixed, rtol=0.01), (moving, fixed)
 
 
+@pytest.mark.slow
 def test_solid_time_order():
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
@@ -120,13 +120,15 @@ def _cfd1_drag(prescribed_motion=None, drop_mesh_velocity=False):
                             "fluid": {"rho": 1000.0, "mu": 1.0}, "inflow": {"u_mean": 0.2},
                             "time": {"dt": 0.02, "t_end": 1.0}})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
-    stepper = Stepper(scene, mesh, ct, ft, prescribed_motion=prescribed_motion)
-    obs = Observables(stepper)
+    sim = Simulation(scene, mesh, ct, ft, prescribed_motion=prescribed_motion)
+    obs = Observables(sim)
     drag = []
-    for _ in range(50):
+    def drop(sim):
         if drop_mesh_velocity:
-            stepper.mesh_velocity.x.array[:] = 0.0
-        stepper.advance(before_move=lambda: drag.append(obs.evaluate()["drag"]))
+            sim.state.mesh_velocity.x.array[:] = 0.0
+
+    drop(sim)
+    sim.run(50, observers=[lambda sim: drag.append(obs.evaluate()["drag"])], after_step=[drop])
     return np.array(drag)
 
 
@@ -136,6 +138,7 @@ def _downstream_wobble(X, t):
     return np.column_stack([0 * s, 0.015 * np.sin(2 * np.pi * t / 0.25) * s])
 
 
+@pytest.mark.slow
 def test_moving_mesh_cfd1_matches_fixed_mesh():
     """CFD1 (Re = 20) on a mesh moved back and forth gives the fixed-mesh drag to discretisation
     accuracy; without the ALE mesh-velocity correction in the feet it does not."""
@@ -148,6 +151,7 @@ def test_moving_mesh_cfd1_matches_fixed_mesh():
     assert err_no_ale > 3 * err_ale, (err_ale, err_no_ale)
 
 
+@pytest.mark.slow
 def test_flag_free_vibration_matches_euler_bernoulli():
     """First bending frequency of the clamped flag (small amplitude) vs Euler–Bernoulli with bending
     stiffness 4 μ_s h³/12 (incompressible plane strain, E/(1 − ν²) = 4 μ_s): within 3 %. This pins the
@@ -177,15 +181,14 @@ def test_closed_box_energy_never_increases():
     assert np.all(np.diff(energy) <= 1e-12 * energy[0]), np.diff(energy).max()
 
 
-def test_inverted_cell_stops_with_exit_3(repo_root, tmp_path):
+def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     """A disk thrown across the box in one step would invert cells: exit 3, the time and place named,
     and the output written so far kept."""
     cfg = tmp_path / "box.yaml"
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
                    "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\ntime: {dt: 0.05, t_end: 1.0}\n")
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "run", str(cfg), "--out", str(out),
-                           "--no-progress"], capture_output=True, text=True, timeout=300)
+    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
     assert proc.returncode == 3, proc.stderr
     line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
     assert len(line) == 1 and "near (" in line[0] and "t = " in line[0] and "Traceback" not in proc.stderr
@@ -223,9 +226,9 @@ def test_solid_area_is_kept_by_the_volume_correction(correction):
                             "solid": {"rho": 1000.0, "mu_s": 2.0e6, "initial_velocity": [0.0, 1.0],
                                       "volume_correction": correction},
                             "time": {"dt": 0.01, "t_end": 0.5}})
-    stepper, _ = _run(scene)
-    area = stepper.comm.allreduce(dolfinx.fem.assemble_scalar(
-        compat.form(dolfinx.fem.Constant(stepper.mesh, 1.0) * ufl.dx)), op=MPI.SUM)
+    sim, _ = _run(scene)
+    area = sim.comm.allreduce(dolfinx.fem.assemble_scalar(
+        compat.form(dolfinx.fem.Constant(sim.mesh, 1.0) * ufl.dx)), op=MPI.SUM)
     drift = abs(area / (0.35 * 0.02) - 1)
     assert (drift < 1e-3) if correction else (drift > 3e-3), drift
 
@@ -238,9 +241,9 @@ def test_reused_factorisation_matches_refactorising_every_step():
                                 "fluid": {"rho": 1000.0, "mu": 1.0}, "solid": {"rho": 1000.0, "mu_s": 0.5e5},
                                 "inflow": {"u_mean": 1.0, "ramp_time": 0.1}, "time": {"dt": 0.01, "t_end": 0.2},
                                 "solver": {"reuse_factorization": reuse}})
-        stepper, results[reuse] = _run(scene)
+        sim, results[reuse] = _run(scene)
         if reuse:
-            assert stepper.factorisations < 5  # the point of it
+            assert sim.stepper.solver.factorisations < 5  # the point of it
     for key in ("uy_A", "drag", "lift"):
         scale = np.abs(results[False][key]).max()
         assert np.abs(results[True][key] - results[False][key]).max() <= 1e-6 * scale, key

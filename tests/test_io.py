@@ -177,6 +177,7 @@ def _mpiexec() -> list[str] | None:
     return None
 
 
+@pytest.mark.slow
 def test_serial_and_parallel_files_agree(tmp_path):
     launcher = _mpiexec()
     if launcher is None or MPI.COMM_WORLD.size > 1:

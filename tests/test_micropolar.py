@@ -5,7 +5,7 @@ Equations (seed eqs. 22-24, 2D, scalar micro-rotation ω):
     ρ (∂u/∂t + u·∇u) = −∇p + (μ + μ_r) Δu + 2 μ_r curl ω + f,          div u = 0,
     ρ I (∂ω/∂t + u·∇ω) = λ₁ Δω − 4 μ_r ω + 2 μ_r curl u + g,
 
-curl ω = (∂ω/∂y, −∂ω/∂x), curl u = ∂u₂/∂x − ∂u₁/∂y. The tests drive ``Stepper`` with an ``exact`` object
+curl ω = (∂ω/∂y, −∂ω/∂x), curl u = ∂u₂/∂x − ∂u₁/∂y. The tests drive ``Simulation`` with an ``exact`` object
 (initial state, Dirichlet data on every boundary but the outlet, and for manufactured solutions the body
 force f and couple g). Each exact solution is first checked against the strong equations by finite
 differences, so a wrong formula (reference or hand derivation) fails here and not as a "bad rate".
@@ -24,7 +24,7 @@ from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.stress import cauchy_stress
 from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.scheme.characteristics import probe
-from cosserat_fsi.scheme.stepper import Stepper
+from cosserat_fsi.simulation import Simulation
 
 import dolfinx
 import ufl
@@ -37,18 +37,17 @@ def _scene(**sections):
 
 def _run(scene, comm=MPI.COMM_WORLD, exact=None, mesh_data=None):
     mesh, ct, ft, _ = mesh_data or load_mesh(scene, comm)
-    stepper = Stepper(scene, mesh, ct, ft, comm, exact=exact)
-    for _ in range(int(round(scene.time.t_end / scene.time.dt))):
-        stepper.advance()
-    return stepper, ft
+    sim = Simulation(scene, mesh, ct, ft, comm, exact=exact)
+    sim.run(sim.steps_to(scene.time.t_end))
+    return sim, ft
 
 
 def _integral(comm, integrand):
     return comm.allreduce(dolfinx.fem.assemble_scalar(compat.form(integrand)), op=MPI.SUM)
 
 
-def _l2(stepper, expr):
-    return np.sqrt(_integral(stepper.comm, ufl.inner(expr, expr) * ufl.dx(domain=stepper.mesh)))
+def _l2(sim, expr):
+    return np.sqrt(_integral(sim.comm, ufl.inner(expr, expr) * ufl.dx(domain=sim.mesh)))
 
 
 def _rates(errors):
@@ -191,33 +190,33 @@ def test_poiseuille_convergence_and_values():
     exact = MicropolarPoiseuille(G=G, h=h, mu=1.0, mu_r=1.0, lambda1=1.0, L=L)
     err_u, err_w, err_traction, err_shear = [], [], [], []
     for level in (0, 1, 2):
-        stepper, ft = _poiseuille_run(level, exact, H, L)
-        X = ufl.SpatialCoordinate(stepper.mesh)
-        err_u.append(_l2(stepper, stepper.u_n - exact.velocity(X, 0.0, UFL)))
-        err_w.append(_l2(stepper, stepper.omega_n - exact.micro_rotation(X, 0.0, UFL)))
+        sim, ft = _poiseuille_run(level, exact, H, L)
+        X = ufl.SpatialCoordinate(sim.mesh)
+        err_u.append(_l2(sim, sim.velocity - exact.velocity(X, 0.0, UFL)))
+        err_w.append(_l2(sim, sim.micro_rotation - exact.micro_rotation(X, 0.0, UFL)))
         # full nonsymmetric stress; the weight y/H keeps the top wall of the walls tag (3)
-        ds = ufl.ds(domain=stepper.mesh, subdomain_data=ft)
-        T = cauchy_stress(stepper.u_n, stepper.p_n, stepper.mu, stepper.mu_r, stepper.omega_n)
-        n = ufl.FacetNormal(stepper.mesh)
-        shear = _integral(stepper.comm, ufl.dot(T, n)[0] * X[1] / H * ds(3)) / L
+        ds = ufl.ds(domain=sim.mesh, subdomain_data=ft)
+        T = cauchy_stress(sim.velocity, sim.pressure, sim.problem.mu, sim.problem.mu_r, sim.micro_rotation)
+        n = ufl.FacetNormal(sim.mesh)
+        shear = _integral(sim.comm, ufl.dot(T, n)[0] * X[1] / H * ds(3)) / L
         err_traction.append(abs(shear + G * h))  # (T n)_x = (μ + μ_r) u' + 2 μ_r ω = −G h on y = H
         # inside, where ω ≠ 0 (it vanishes on the walls): T_xy = (μ + μ_r) u' + 2 μ_r ω = −G (y − h)
-        err_shear.append(_l2(stepper, T[0, 1] + G * (X[1] - h)))
+        err_shear.append(_l2(sim, T[0, 1] + G * (X[1] - h)))
     assert np.all(_rates(err_u) > 2.8) and np.all(_rates(err_w) > 2.8), (err_u, err_w)
     assert err_u[-1] < 3e-6 and err_w[-1] < 6e-6
     assert np.all(_rates(err_traction) > 1.7) and err_traction[-1] < 1e-3, err_traction
     assert np.all(_rates(err_shear) > 1.8) and err_shear[-1] < 5e-4, err_shear
 
     # level 2: probes against the reference table, flow rate through the outlet, pressure drop G L
-    values = probe(stepper.chars.locator, [stepper.u_n, stepper.omega_n, stepper.p_n],
-                   [[L / 2, h], [L / 2, h + 0.5], [0.0, h], [L, h]], stepper.comm)
+    values = probe(sim.locator, [sim.velocity, sim.micro_rotation, sim.pressure],
+                   [[L / 2, h], [L / 2, h + 0.5], [0.0, h], [L, h]], sim.comm)
     u_c, w_c, p_in, p_out = values[0][0, 0], values[1][1, 0], values[2][2, 0], values[2][3, 0]
     assert abs(u_c - 0.28473571) < 1e-6 and abs(w_c - 0.05168046) < 1e-6, (u_c, w_c)
-    Q = _integral(stepper.comm, stepper.u_n[0] * ds(2))
+    Q = _integral(sim.comm, sim.velocity[0] * ds(2))
     assert abs(Q - 0.37072084) < 1e-6 and abs(exact.flow_rate() - 0.37072084) < 1e-8, Q
-    observed = Observables(stepper).evaluate()  # the run's `flow_rate` and `omega_max` columns
+    observed = Observables(sim).evaluate()  # the run's `flow_rate` and `omega_max` columns
     assert abs(observed["flow_rate"] - Q) < 1e-12 * Q, observed
-    assert observed["omega_max"] == pytest.approx(np.abs(stepper.omega_n.x.array).max(), rel=1e-14)
+    assert observed["omega_max"] == pytest.approx(np.abs(sim.micro_rotation.x.array).max(), rel=1e-14)
     assert abs((p_in - p_out) - G * L) < 1e-5 * G * L, p_in - p_out
 
 
@@ -231,7 +230,8 @@ def test_poiseuille_steady_state_independent_of_scheme_and_dt():
     for scheme, dt, steps in (("characteristics1", 100.0, 3), ("characteristics2", 1.0, 10)):
         other, _ = _poiseuille_run(0, exact, 2.0, 2.0, scheme, dt=dt, steps=steps)
         diffs = [np.abs(a.x.array - b.x.array).max()
-                 for a, b in ((other.u_n, ref.u_n), (other.omega_n, ref.omega_n), (other.p_n, ref.p_n))]
+                 for a, b in ((other.velocity, ref.velocity), (other.micro_rotation, ref.micro_rotation),
+                              (other.pressure, ref.pressure))]
         assert diffs[0] < 1e-6 and diffs[1] < 1e-6 and diffs[2] < 1e-5, (scheme, dt, diffs)
 
 
@@ -249,10 +249,10 @@ def test_taylor_green_time_order(scheme, level):
                        fluid={"rho": TG_PARAMS["rho"], "mu": TG_PARAMS["mu"]},
                        micropolar={k: TG_PARAMS[k] for k in ("mu_r", "lambda1", "inertia")},
                        time={"dt": dt, "t_end": T, "scheme": scheme})
-        stepper, _ = _run(scene, exact=exact)
-        X = ufl.SpatialCoordinate(stepper.mesh)
-        err_u.append(_l2(stepper, stepper.u_n - exact.velocity(X, T, UFL)))
-        err_w.append(_l2(stepper, stepper.omega_n - exact.micro_rotation(X, T, UFL)))
+        sim, _ = _run(scene, exact=exact)
+        X = ufl.SpatialCoordinate(sim.mesh)
+        err_u.append(_l2(sim, sim.velocity - exact.velocity(X, T, UFL)))
+        err_w.append(_l2(sim, sim.micro_rotation - exact.micro_rotation(X, T, UFL)))
     rate_u, rate_w = _rates(err_u), _rates(err_w)
     mean_w = np.log2(err_w[0] / err_w[-1]) / 2
     if scheme == "characteristics1":
@@ -277,12 +277,12 @@ def test_manufactured_steady_convergence(viscous_form):
                        fluid={"rho": MMS_PARAMS["rho"], "mu": MMS_PARAMS["mu"], "viscous_form": viscous_form},
                        micropolar={k: MMS_PARAMS[k] for k in ("mu_r", "lambda1", "inertia")},
                        time={"dt": dt, "t_end": steps * dt, "scheme": "characteristics2"})
-        stepper, _ = _run(scene, exact=exact)
-        X = ufl.SpatialCoordinate(stepper.mesh)
-        p_mean = _integral(stepper.comm, stepper.p_n * ufl.dx(domain=stepper.mesh))  # exact mean is 0
-        errors["u"].append(_l2(stepper, stepper.u_n - exact.velocity(X, 0.0, UFL)))
-        errors["w"].append(_l2(stepper, stepper.omega_n - exact.micro_rotation(X, 0.0, UFL)))
-        errors["p"].append(_l2(stepper, stepper.p_n - p_mean - exact.pressure(X, 0.0, UFL)))
+        sim, _ = _run(scene, exact=exact)
+        X = ufl.SpatialCoordinate(sim.mesh)
+        p_mean = _integral(sim.comm, sim.pressure * ufl.dx(domain=sim.mesh))  # exact mean is 0
+        errors["u"].append(_l2(sim, sim.velocity - exact.velocity(X, 0.0, UFL)))
+        errors["w"].append(_l2(sim, sim.micro_rotation - exact.micro_rotation(X, 0.0, UFL)))
+        errors["p"].append(_l2(sim, sim.pressure - p_mean - exact.pressure(X, 0.0, UFL)))
     assert np.all(_rates(errors["u"]) > 2.8) and np.all(_rates(errors["w"]) > 2.8), errors
     assert np.all(_rates(errors["p"]) > 1.8), errors
     assert errors["u"][-1] < 3e-5 and errors["w"][-1] < 1.5e-5 and errors["p"][-1] < 1e-3, errors
@@ -301,13 +301,13 @@ def test_classical_limit_mu_r_to_zero():
 
     mesh_data = load_mesh(scene({}), MPI.COMM_WORLD)  # one mesh: the fields are compared in one space
     ns, _ = _run(scene({}), mesh_data=mesh_data)
-    assert "micro_rotation" not in ns.space.names
+    assert "micro_rotation" not in ns.problem.space.names
     ratios_u, ratios_w, diffs_p = [], [], []
     for mu_r in (1e-2, 1e-4, 1e-8):
         mp, _ = _run(scene({"mu_r": mu_r, "lambda1": 1.0}), mesh_data=mesh_data)
-        ratios_u.append(_l2(mp, mp.u_n - ns.u_n) / mu_r)
-        ratios_w.append(_l2(mp, mp.omega_n) / mu_r)
-        diffs_p.append(_l2(mp, mp.p_n - ns.p_n))
+        ratios_u.append(_l2(mp, mp.velocity - ns.velocity) / mu_r)
+        ratios_w.append(_l2(mp, mp.micro_rotation) / mu_r)
+        diffs_p.append(_l2(mp, mp.pressure - ns.pressure))
     assert 0.05 < ratios_u[-1] < 1.0, ratios_u  # a nonzero O(μ_r) effect ...
     assert np.allclose(ratios_u, ratios_u[-1], rtol=0.15), ratios_u  # ... linear in μ_r
     assert np.allclose(ratios_w, ratios_w[-1], rtol=0.05), ratios_w
@@ -324,14 +324,15 @@ def test_micro_rotation_field_only_when_needed(micropolar, built):
     scene = _scene(geometry={"name": "square", "level": 0}, fluid={"rho": 1.0, "mu": 1.0},
                    micropolar=micropolar, time={"dt": 0.1, "t_end": 0.1})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
-    stepper = Stepper(scene, mesh, ct, ft, MPI.COMM_WORLD)
-    stepper.advance()  # every model solves (λ₂ alone: an ω block with no coefficient; MUMPS gives ω = 0)
-    assert np.isfinite(stepper.w.x.array).all()
-    assert ("micro_rotation" in stepper.space.names) is built
-    assert hasattr(stepper, "omega_n") is built
-    assert stepper.model.micro_rotation is built
+    sim = Simulation(scene, mesh, ct, ft, MPI.COMM_WORLD)
+    sim.step()  # every model solves (λ₂ alone: an ω block with no coefficient; MUMPS gives ω = 0)
+    solution = sim.stepper.solution
+    assert np.isfinite(solution.x.array).all()
+    assert ("micro_rotation" in sim.problem.space.names) is built
+    assert (sim.micro_rotation is not None) is built
+    assert sim.model.micro_rotation is built
     n_fields = 3 if built else 2
-    assert len(stepper.space.names) == n_fields and stepper.w.function_space.num_sub_spaces == n_fields
+    assert len(sim.problem.space.names) == n_fields and solution.function_space.num_sub_spaces == n_fields
 
 
 class NewtonianPoiseuille(MicropolarPoiseuille):
@@ -357,11 +358,11 @@ def test_half_curl_wall_condition_gives_the_newtonian_poiseuille_flow():
                    micropolar={"mu_r": exact.mu_r, "lambda1": exact.lambda1, "inertia": 1.0,
                                "wall_condition": "half_curl"},
                    time={"dt": 10.0, "t_end": 50.0, "scheme": "characteristics2"})
-    stepper, ft = _run(scene, exact=exact)
-    X = ufl.SpatialCoordinate(stepper.mesh)
-    assert _l2(stepper, stepper.u_n - exact.velocity(X, 0.0, UFL)) < 1e-9
-    assert _l2(stepper, stepper.omega_n - exact.micro_rotation(X, 0.0, UFL)) < 1e-9
-    Q = Observables(stepper).evaluate()["flow_rate"]
+    sim, ft = _run(scene, exact=exact)
+    X = ufl.SpatialCoordinate(sim.mesh)
+    assert _l2(sim, sim.velocity - exact.velocity(X, 0.0, UFL)) < 1e-9
+    assert _l2(sim, sim.micro_rotation - exact.micro_rotation(X, 0.0, UFL)) < 1e-9
+    Q = Observables(sim).evaluate()["flow_rate"]
     assert abs(Q - exact.flow_rate()) < 1e-9
     zero = MicropolarPoiseuille(G=G, h=h, mu=1.0, mu_r=1.0, lambda1=1.0, L=L)
     assert zero.flow_rate() < Q - 0.2  # 0.3707 against 0.6667
@@ -405,10 +406,10 @@ def test_nodal_characteristics_for_the_micro_rotation():
 
     err_u, err_w = [], []
     for dt in (0.1, 0.05, 0.025):
-        stepper = run(dt)
-        X = ufl.SpatialCoordinate(stepper.mesh)
-        err_u.append(_l2(stepper, stepper.u_n - exact.velocity(X, T, UFL)))
-        err_w.append(_l2(stepper, stepper.omega_n - exact.micro_rotation(X, T, UFL)))
+        sim = run(dt)
+        X = ufl.SpatialCoordinate(sim.mesh)
+        err_u.append(_l2(sim, sim.velocity - exact.velocity(X, T, UFL)))
+        err_w.append(_l2(sim, sim.micro_rotation - exact.micro_rotation(X, T, UFL)))
     assert np.all(np.abs(_rates(err_u) - 1) < 0.2) and np.all(np.abs(_rates(err_w) - 1) < 0.2), (err_u, err_w)
     a = run(0.1, characteristics="nodes")
     scene = _scene(geometry={"name": "square", "level": 1, "length": float(np.pi)},
@@ -416,4 +417,5 @@ def test_nodal_characteristics_for_the_micro_rotation():
                    micropolar={k: TG_PARAMS[k] for k in ("mu_r", "lambda1", "inertia")},
                    time={"dt": 0.1, "t_end": T, "scheme": "characteristics1", "characteristics": "nodes"})
     b = _run(scene, exact=exact)[0]
-    assert np.array_equal(a.omega_n.x.array, b.omega_n.x.array) and np.array_equal(a.u_n.x.array, b.u_n.x.array)
+    assert np.array_equal(a.micro_rotation.x.array, b.micro_rotation.x.array)
+    assert np.array_equal(a.velocity.x.array, b.velocity.x.array)

@@ -16,7 +16,7 @@ from cosserat_fsi.observables import Observables, schaefer_turek_coefficients
 from cosserat_fsi.references import reference_for
 from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.scheme.characteristics import probe
-from cosserat_fsi.scheme.stepper import Stepper
+from cosserat_fsi.simulation import Simulation
 
 import dolfinx
 import ufl
@@ -28,19 +28,16 @@ def _scene(**sections):
 
 def _run(scene, comm=MPI.COMM_WORLD, exact=None, observe=False):
     mesh, ct, ft, _ = load_mesh(scene, comm)
-    stepper = Stepper(scene, mesh, ct, ft, comm, exact=exact)
-    obs = Observables(stepper) if observe else None
+    sim = Simulation(scene, mesh, ct, ft, comm, exact=exact)
+    obs = Observables(sim) if observe else None
     history = []
-    for _ in range(int(round(scene.time.t_end / scene.time.dt))):
-        stepper.advance()
-        if obs is not None:
-            history.append(obs.evaluate())
-    return stepper, history
+    sim.run(sim.steps_to(scene.time.t_end), observers=[lambda sim: history.append(obs.evaluate())] if observe else [])
+    return sim, history
 
 
-def _l2(stepper, expr):
+def _l2(sim, expr):
     form = compat.form(ufl.inner(expr, expr) * ufl.dx)
-    return np.sqrt(stepper.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
+    return np.sqrt(sim.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
 
 
 class TaylorGreen:
@@ -63,10 +60,10 @@ def test_time_order_taylor_green(scheme, order):
     for dt in (0.2, 0.1, 0.05):
         scene = _scene(geometry={"name": "square", "level": 2, "length": float(np.pi)},
                        fluid={"rho": 1.0, "mu": mu}, time={"dt": dt, "t_end": T, "scheme": scheme})
-        stepper, _ = _run(scene, exact=exact)
-        u_exact = dolfinx.fem.Function(stepper.u_n.function_space)
+        sim, _ = _run(scene, exact=exact)
+        u_exact = dolfinx.fem.Function(sim.velocity.function_space)
         u_exact.interpolate(lambda x: exact.velocity(x, T))
-        errors.append(_l2(stepper, stepper.u_n - u_exact))
+        errors.append(_l2(sim, sim.velocity - u_exact))
     rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all(np.abs(rates - order) < 0.25), (errors, rates)
 
@@ -82,11 +79,11 @@ def test_poiseuille_channel(viscous_form):
     scene = _scene(geometry={"name": "channel", "level": 1, "length": L, "height": H},
                    fluid={"rho": 1.0, "mu": mu, "viscous_form": viscous_form},
                    inflow={"u_mean": u_mean}, time={"dt": 0.5, "t_end": 10.0, "scheme": "characteristics2"})
-    stepper, _ = _run(scene)
-    u_exact = dolfinx.fem.Function(stepper.u_n.function_space)
+    sim, _ = _run(scene)
+    u_exact = dolfinx.fem.Function(sim.velocity.function_space)
     u_exact.interpolate(lambda x: np.vstack([6 * u_mean * x[1] * (H - x[1]) / H**2, 0 * x[0]]))
-    error = _l2(stepper, stepper.u_n - u_exact) / _l2(stepper, u_exact)
-    p_in, p_out = probe(stepper.chars.locator, [stepper.p_n], [[0.0, 0.5], [L, 0.5]])[0][:, 0]
+    error = _l2(sim, sim.velocity - u_exact) / _l2(sim, u_exact)
+    p_in, p_out = probe(sim.locator, [sim.pressure], [[0.0, 0.5], [L, 0.5]])[0][:, 0]
     drop = 12 * mu * u_mean * L / H**2
     if viscous_form == "laplacian":
         assert error < 1e-8
@@ -103,6 +100,7 @@ def _schaefer_turek_2d1(level, comm=MPI.COMM_WORLD, t_end=10.0, dt=0.02):
     return history
 
 
+@pytest.mark.slow
 def test_schaefer_turek_2d1_coarse_and_refined():
     """2D-1 drag, lift, Δp on levels 0 and 1 (δt = 0.02, t = 10): within the coarse tolerances, and
     refinement moves c_D closer to the reference (shared/reference/benchmarks.yaml)."""

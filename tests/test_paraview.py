@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -43,19 +42,18 @@ print("JSON" + json.dumps(out))
 """
 
 
-def _run(out, repo_root, launcher=(), env=None):
-    cmd = [*launcher, sys.executable, "-m", "cosserat_fsi", "run", str(repo_root / "configs/turek_hron_fsi3.yaml"),
-           "--out", str(out), "--no-progress", "--set", "geometry.level=0", "--set", "time.dt=0.01",
-           "--set", "time.t_end=0.05", "--set", "output.every=1", "--set", "solid.mu_s=2.0e4",
-           "--set", "inflow.ramp_time=0.01"]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
+def _run(run_cli, out, repo_root, launcher=()):
+    proc = run_cli("run", repo_root / "configs/turek_hron_fsi3.yaml", "--out", out, "--no-progress",
+                   "--set", "geometry.level=0", "--set", "time.dt=0.01", "--set", "time.t_end=0.05",
+                   "--set", "output.every=1", "--set", "solid.mu_s=2.0e4", "--set", "inflow.ramp_time=0.01",
+                   launcher=launcher)
     assert proc.returncode == 0, proc.stderr
     return out
 
 
 @pytest.fixture(scope="module")
-def run_dir(tmp_path_factory, repo_root):
-    return _run(tmp_path_factory.mktemp("pv") / "run", repo_root)
+def run_dir(tmp_path_factory, repo_root, run_cli):
+    return _run(run_cli, tmp_path_factory.mktemp("pv") / "run", repo_root)
 
 
 def _check(times, positions, speed_max, p_range, run):
@@ -108,11 +106,12 @@ def test_pvpython_opens_the_run(run_dir, tmp_path):
     _pvpython(run_dir, tmp_path)
 
 
-def test_files_written_by_two_ranks_read_the_same(run_dir, tmp_path, repo_root, mpirun):
+@pytest.mark.slow
+def test_files_written_by_two_ranks_read_the_same(run_cli, run_dir, tmp_path, repo_root, mpirun):
     """The same run under mpirun -n 2: identical mesh, topology and (to round-off) fields in the reader."""
     import h5py
 
-    two = _run(tmp_path / "two", repo_root, mpirun(2), mpirun.env)
+    two = _run(run_cli, tmp_path / "two", repo_root, mpirun(2))
     if shutil.which("pvpython"):
         _pvpython(two, tmp_path)
     with h5py.File(run_dir / "fields.h5") as f1, h5py.File(two / "fields.h5") as f2:

@@ -3,8 +3,6 @@ timeseries.csv says, the PNGs are drawn (not blank), bad RUN_DIR is a one-line e
 
 from __future__ import annotations
 
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,13 +11,11 @@ from cosserat_fsi.io import read_timeseries
 
 
 @pytest.fixture(scope="module")
-def fsi_run(tmp_path_factory, repo_root):
+def fsi_run(tmp_path_factory, repo_root, run_cli):
     out = tmp_path_factory.mktemp("plot") / "run"
-    cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(repo_root / "configs/turek_hron_fsi3.yaml"),
-           "--out", str(out), "--no-progress", "--set", "geometry.level=0", "--set", "time.dt=0.01",
-           "--set", "time.t_end=0.06", "--set", "output.every=1", "--set", "solid.mu_s=2.0e4",
-           "--set", "inflow.ramp_time=0.01"]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    proc = run_cli("run", repo_root / "configs/turek_hron_fsi3.yaml", "--out", out, "--no-progress",
+                   "--set", "geometry.level=0", "--set", "time.dt=0.01", "--set", "time.t_end=0.06",
+                   "--set", "output.every=1", "--set", "solid.mu_s=2.0e4", "--set", "inflow.ramp_time=0.01")
     assert proc.returncode == 0, proc.stderr
     return out
 
@@ -39,12 +35,10 @@ def test_moving_mesh_in_fields_follows_point_A(fsi_run):
     assert np.abs(ts["uy_A"]).max() > 1e-7  # it did move
 
 
-def test_plot_writes_time_series_and_snapshots(fsi_run, tmp_path):
+def test_plot_writes_time_series_and_snapshots(run_cli, fsi_run, tmp_path):
     import matplotlib.image as mpimg
 
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "plot", str(fsi_run), "--out",
-                           str(tmp_path), "--time", "0.02", "--time", "0.06"], capture_output=True, text=True,
-                          timeout=300)
+    proc = run_cli("plot", fsi_run, "--out", tmp_path, "--time", "0.02", "--time", "0.06", timeout=300)
     assert proc.returncode == 0, proc.stderr
     names = sorted(p.name for p in tmp_path.glob("*.png"))
     assert names == ["energies.png", "flow.png", "forces.png", "snapshot_t0.0200.png", "snapshot_t0.0600.png",
@@ -54,8 +48,7 @@ def test_plot_writes_time_series_and_snapshots(fsi_run, tmp_path):
         assert image.ndim == 3 and image[..., :3].std() > 0.05, name  # drawn, not blank
 
 
-def test_plot_of_a_folder_that_is_not_a_run_exits_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "cosserat_fsi", "plot", str(tmp_path / "nope")],
-                          capture_output=True, text=True, timeout=120)
+def test_plot_of_a_folder_that_is_not_a_run_exits_2(run_cli, tmp_path):
+    proc = run_cli("plot", tmp_path / "nope", timeout=120)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "RUN_DIR" in proc.stderr, proc.stderr
     assert "Traceback" not in proc.stderr

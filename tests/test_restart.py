@@ -8,7 +8,6 @@ import json
 import shutil
 import signal
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -82,11 +81,6 @@ def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
         assert json.loads((cut / "summary.json").read_text())["status"] == "completed"
 
 
-def _cli(*args, timeout=300):
-    return subprocess.run([sys.executable, "-m", "cosserat_fsi", *map(str, args)], capture_output=True,
-                          text=True, timeout=timeout)
-
-
 def _config(tmp_path, raw=ST, **time):
     import yaml
 
@@ -96,11 +90,12 @@ def _config(tmp_path, raw=ST, **time):
     return path
 
 
-def test_sigterm_writes_a_checkpoint_and_the_restart_completes(tmp_path):
+@pytest.mark.slow
+def test_sigterm_writes_a_checkpoint_and_the_restart_completes(run_cli, tmp_path):
     config = _config(tmp_path, t_end=40.0)  # 800 steps: the signal arrives mid-run
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi", "run", str(config), "--out", str(out),
-                             "--no-progress"], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(run_cli.command("run", config, "--out", out, "--no-progress"), env=run_cli.env,
+                            stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     csv = out / "timeseries.csv"
     deadline = time.time() + 120
     while time.time() < deadline and (not csv.exists() or csv.read_text().count("\n") < 12):
@@ -116,20 +111,20 @@ def test_sigterm_writes_a_checkpoint_and_the_restart_completes(tmp_path):
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
     # resume with a shorter end time (allowed to change) and compare with an uninterrupted run
     t_end = 0.05 * (meta["step"] + 6)
-    done = _cli("run", _config(tmp_path, t_end=t_end), "--restart", out, "--no-progress")
+    done = run_cli("run", _config(tmp_path, t_end=t_end), "--restart", out, "--no-progress")
     assert done.returncode == 0, done.stderr
     ref = tmp_path / "ref"
-    assert _cli("run", _config(tmp_path, t_end=t_end), "--out", ref, "--no-progress").returncode == 0
+    assert run_cli("run", _config(tmp_path, t_end=t_end), "--out", ref, "--no-progress").returncode == 0
     a, b = read_timeseries(ref / "timeseries.csv"), read_timeseries(csv)
     assert len(a["t"]) == len(b["t"]) == meta["step"] + 6
     assert np.abs(a["drag"] - b["drag"]).max() <= 1e-10 * np.abs(a["drag"]).max()
 
 
 @pytest.fixture(scope="module")
-def finished_run(tmp_path_factory):
+def finished_run(tmp_path_factory, run_cli):
     tmp = tmp_path_factory.mktemp("finished")
     out = tmp / "run"
-    assert _cli("run", _config(tmp, t_end=0.3), "--out", out, "--no-progress",
+    assert run_cli("run", _config(tmp, t_end=0.3), "--out", out, "--no-progress",
                 "--set", "output.checkpoint_every=2").returncode == 0
     return tmp, out
 
@@ -147,7 +142,7 @@ def _snapshot(folder: Path) -> dict:
     ("missing_rank_file", "error: --restart: cannot read"),
     ("timeseries_gone", "error: --restart: "),
 ])
-def test_bad_restart_exits_2_and_touches_nothing(finished_run, tmp_path, case, expected):
+def test_bad_restart_exits_2_and_touches_nothing(run_cli, finished_run, tmp_path, case, expected):
     tmp, run = finished_run
     folder = tmp_path / "copy"
     shutil.copytree(run, folder)
@@ -167,7 +162,7 @@ def test_bad_restart_exits_2_and_touches_nothing(finished_run, tmp_path, case, e
     elif case == "timeseries_gone":
         (folder / "timeseries.csv").unlink()
     before = _snapshot(folder) if folder.is_dir() else None
-    result = _cli("run", config, "--restart", folder, "--no-progress", *extra)
+    result = run_cli("run", config, "--restart", folder, "--no-progress", *extra)
     assert result.returncode == 2, result.stderr
     assert len(result.stderr.splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
     assert result.stderr.startswith(expected), result.stderr
@@ -177,7 +172,7 @@ def test_bad_restart_exits_2_and_touches_nothing(finished_run, tmp_path, case, e
 
 
 @pytest.mark.parametrize("delay", [0.0, 0.37, 0.81])
-def test_kill_9_leaves_readable_output(tmp_path, repo_root, delay):
+def test_kill_9_leaves_readable_output(run_cli, tmp_path, repo_root, delay):
     """SIGKILL at an arbitrary moment: timeseries.csv parses, and every step fields.xdmf lists is in
     fields.h5 and readable (h5 flushed before the .xdmf is atomically replaced): at worst the step being
     written is missing."""
@@ -186,8 +181,8 @@ def test_kill_9_leaves_readable_output(tmp_path, repo_root, delay):
     import h5py
 
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi", "run", str(_config(tmp_path, t_end=20.0)),
-                             "--out", str(out), "--no-progress", "--set", "output.every=1"],
+    proc = subprocess.Popen(run_cli.command("run", _config(tmp_path, t_end=20.0), "--out", out, "--no-progress",
+                                            "--set", "output.every=1"), env=run_cli.env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     csv = out / "timeseries.csv"
     deadline = time.time() + 120

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -14,18 +12,16 @@ from cosserat_fsi.config import load_scene
 from cosserat_fsi.io import read_timeseries
 
 
-def _run(repo_root, tmp_path, *sets):
+def _run(run_cli, repo_root, tmp_path, *sets):
     out = tmp_path / "run"
-    cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(repo_root / "configs/schaefer_turek_2d1.yaml"),
-           "--out", str(out), "--no-progress", "--set", "geometry.level=0", "--set", "time.scheme=characteristics1"]
-    for s in sets:
-        cmd += ["--set", s]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    proc = run_cli("run", repo_root / "configs/schaefer_turek_2d1.yaml", "--out", out, "--no-progress",
+                   *[a for s in ["geometry.level=0", "time.scheme=characteristics1", *sets] for a in ("--set", s)],
+                   cwd=tmp_path)
     return proc, out
 
 
-def test_run_writes_the_contract_files(repo_root, tmp_path):
-    proc, out = _run(repo_root, tmp_path, "time.dt=0.05", "time.t_end=0.5", "output.every=5")
+def test_run_writes_the_contract_files(run_cli, repo_root, tmp_path):
+    proc, out = _run(run_cli, repo_root, tmp_path, "time.dt=0.05", "time.t_end=0.5", "output.every=5")
     assert proc.returncode == 0, proc.stderr
     # config.yaml is the fully resolved scene and loads back to the same scene
     resolved = load_scene(out / "config.yaml")
@@ -50,9 +46,10 @@ def test_run_writes_the_contract_files(repo_root, tmp_path):
     assert (out / "fields.h5").stat().st_size > 0 and (out / "run.log").read_text().count("model:") == 1
 
 
-def test_diverging_run_exits_3_and_keeps_output(repo_root, tmp_path):
+def test_diverging_run_exits_3_and_keeps_output(run_cli, repo_root, tmp_path):
     """A body force of 1e308 N/m³ overflows the first solve: exit 3, one line, files kept."""
-    proc, out = _run(repo_root, tmp_path, "time.dt=0.05", "time.t_end=0.5", "fluid.body_force=[1.0e308, 1.0e308]")
+    proc, out = _run(run_cli, repo_root, tmp_path, "time.dt=0.05", "time.t_end=0.5",
+                     "fluid.body_force=[1.0e308, 1.0e308]")
     assert proc.returncode == 3, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.startswith("diverged:")]
     assert len(lines) == 1 and "t = 0.05" in lines[0] and "Traceback" not in proc.stderr

@@ -4,8 +4,6 @@ the Pareto front, and one-line exit 2 for a bad study file (every run's scene ch
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
 
@@ -20,22 +18,17 @@ def _study(tmp_path, text):
     return path
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "cosserat_fsi", *map(str, args)], capture_output=True,
-                          text=True, timeout=600)
-
-
 def test_pareto_front():
     points = [(10, 0.1), (20, 0.05), (15, 0.2), (30, 0.05), (5, 0.5)]
     assert sorted(pareto(points)) == [0, 1, 4]
 
 
-def test_study_runs_resumes_and_reports(tmp_path, repo_root):
+def test_study_runs_resumes_and_reports(run_cli, tmp_path, repo_root):
     study = _study(tmp_path, f"name: tiny\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D, dp]\n"
                              "base: {geometry.level: 0, time.t_end: 0.3, time.scheme: characteristics2}\n"
                              "ladder: {time.dt: [0.1, 0.05]}\n")
     out = tmp_path / "docs"
-    first = _cli("study", study, "--out", out)
+    first = run_cli("study", study, "--out", out)
     assert first.returncode == 0, first.stderr
     runs = out / "runs" / "study-tiny"
     summaries = {p.parent.name: json.loads(p.read_text()) for p in runs.glob("*/summary.json")}
@@ -47,7 +40,7 @@ def test_study_runs_resumes_and_reports(tmp_path, repo_root):
         assert f"{s['benchmark']['c_D']['error']:+.2%}" in row and f"{s['wall_time']['per_step']:.4f}" in row
     assert "Pareto front" in report and (out / "figures" / "study_tiny_pareto.png").stat().st_size > 1000
     stamps = {p: p.stat().st_mtime_ns for p in runs.glob("*/summary.json")}
-    again = _cli("study", study, "--out", out)  # resumes: nothing is run again
+    again = run_cli("study", study, "--out", out)  # resumes: nothing is run again
     assert again.returncode == 0 and {p: p.stat().st_mtime_ns for p in stamps} == stamps
 
 
@@ -60,9 +53,9 @@ def test_study_runs_resumes_and_reports(tmp_path, repo_root):
     ("name: x\nconfig: {cfg}\nladder: {{time.dt: [0.1]}}\n", "observables: "),
     ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: [\n", "could not parse YAML"),
 ])
-def test_bad_study_exits_2_before_running(tmp_path, repo_root, text, expected):
+def test_bad_study_exits_2_before_running(run_cli, tmp_path, repo_root, text, expected):
     study = _study(tmp_path, text.format(cfg=repo_root / REPO_CONFIG))
-    result = _cli("study", study, "--out", tmp_path / "docs")
+    result = run_cli("study", study, "--out", tmp_path / "docs")
     assert result.returncode == 2 and len(result.stderr.splitlines()) == 1, result.stderr
     assert "Traceback" not in result.stderr and expected in result.stderr, result.stderr
     assert not (tmp_path / "docs" / "runs").exists()

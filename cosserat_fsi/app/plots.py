@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -105,7 +106,7 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
     return made
 
 
-def plot_snapshots(run_dir: Path, out: Path, times=None) -> list[Path]:
+def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = None) -> list[Path]:
     """pyvista off-screen pictures of |u|, p (and ω) at the output steps nearest to ``times``."""
     if not (run_dir / "fields.h5").exists():
         return []
@@ -153,7 +154,7 @@ def plot_snapshots(run_dir: Path, out: Path, times=None) -> list[Path]:
     return made
 
 
-def plot_run(run_dir, out=None, times=None) -> list[Path]:
+def plot_run(run_dir: str | Path, out: str | Path | None = None, times: Sequence[float] | None = None) -> list[Path]:
     """Write every picture of ``run_dir`` into ``out`` (default RUN_DIR/plots); returns their paths."""
     run_dir = Path(run_dir)
     if not (run_dir / "timeseries.csv").exists():

@@ -1,4 +1,4 @@
-"""Run one scene: mesh → stepper → observables → outputs (the CLI contract of `cosserat-fsi run`).
+"""Run one scene: mesh → simulation → observables → outputs (the CLI contract of `cosserat-fsi run`).
 
 Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
 summary.json (and run.log through the CLI's logging).
@@ -27,7 +27,7 @@ from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
-from ..scheme.steady import make_stepper
+from ..simulation import Simulation
 from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
@@ -62,19 +62,19 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         (out_dir / "config.yaml").write_text(dump_resolved(scene), encoding="utf-8")
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
     n_vertices = mesh.topology.index_map(0).size_global
-    stepper = make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
-    observables = Observables(stepper)  # on the reference mesh (point A is found there)
+    sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
+    observables = Observables(sim)  # on the reference mesh (point A is found there)
     if restart:
-        stepper.restore(state)
-        log.info("restart from the checkpoint of step %d (t = %.6g)", stepper.step_count, stepper.t)
+        sim.restore(state)
+        log.info("restart from the checkpoint of step %d (t = %.6g)", sim.step_count, sim.t)
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
              mesh.topology.index_map(mesh.topology.dim).size_global)
-    log.info("model: %s", stepper.model.describe())
-    log.info("dofs: %s", stepper.num_dofs())
+    log.info("model: %s", sim.model.describe())
+    log.info("dofs: %s", sim.num_dofs())
     setup_time = time.perf_counter() - wall0
 
     steady = scene.time.scheme == "steady"
-    n_steps = 1 if steady else int(round(scene.time.t_end / scene.time.dt))
+    n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
     series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
                               keep_rows=meta["rows"] if restart else None)
@@ -84,43 +84,42 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
                                 keep_steps=meta.get("field_steps", 0) if restart else None)
     bar = _progress_bar(n_steps, progress and comm.rank == 0)
     if bar is not None:
-        bar.update(stepper.step_count)
+        bar.update(sim.step_count)
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
 
     def checkpoint():
-        with stepper.timers("checkpoint"):
-            write_checkpoint(out_dir, stepper, comm, {
-                "fingerprint": fingerprint, "rows": stepper.step_count,
+        with sim.timers("checkpoint"):
+            write_checkpoint(out_dir, sim, comm, {
+                "fingerprint": fingerprint, "rows": sim.step_count,
                 "field_steps": fields.num_steps if fields is not None else 0})
+
+    def observe(sim):  # after the solve, on the mesh the step was solved on
+        with sim.timers("observables"):
+            series.write(sim.t, observables.evaluate())
+
+    def after_step(sim):
+        k = sim.step_count
+        if fields is not None and (steady or k % every == 0):
+            with sim.timers("output"):
+                _write_fields(fields, sim)
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
+        signum = comm.allreduce(stop.signum, op=MPI.MAX)
+        if signum:
+            checkpoint()
+            raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
+                              f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
+        if every_ck and k % every_ck == 0 and k < n_steps:
+            checkpoint()
 
     try:
         with _StopSignals() as stop:
             if fields is not None and not restart and not steady:
-                _write_fields(fields, stepper)
-
-            def observe():  # after the solve, on the mesh the step was solved on
-                with stepper.timers("observables"):
-                    series.write(stepper.t, observables.evaluate())
-
-            for k in range(stepper.step_count, n_steps):
-                stepper.advance(before_move=observe)
-                if fields is not None and (steady or (k + 1) % every == 0):
-                    with stepper.timers("output"):
-                        _write_fields(fields, stepper)
-                if bar is not None:
-                    bar.update(1)
-                    bar.set_postfix_str(f"t={stepper.t:.4g}", refresh=False)
-                signum = comm.allreduce(stop.signum, op=MPI.MAX)
-                if signum:
-                    checkpoint()
-                    raise Interrupted(f"signal {signum} at step {stepper.step_count} (t = {stepper.t:.6g}): "
-                                      f"checkpoint written; resume with `cosserat-fsi run CONFIG --restart "
-                                      f"{out_dir}`", signum)
-                if every_ck and (k + 1) % every_ck == 0 and k + 1 < n_steps:
-                    checkpoint()
-            if steady:
-                stepper.check()  # a Newton that did not converge: exit 3 after the outputs
+                _write_fields(fields, sim)
+            sim.run(n_steps, observers=[observe], after_step=[after_step])
+            sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
     except DivergenceError as exc:
         status, message = "diverged", str(exc)
         raise
@@ -133,7 +132,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         series.close()
         if fields is not None:
             fields.close()
-        summary = _summary(scene, stepper, out_dir, n_vertices, setup_time, time.perf_counter() - wall0,
+        summary = _summary(scene, sim, out_dir, n_vertices, setup_time, time.perf_counter() - wall0,
                            status, message, comm)
     return summary
 
@@ -170,32 +169,32 @@ def _progress_bar(total: int, enabled: bool):
     return tqdm(total=total, unit="step", dynamic_ncols=True, mininterval=0.5)
 
 
-def _write_fields(fields, stepper):
-    point = {"velocity": stepper.u_n, "pressure": stepper.p_n}
-    if stepper.model.micro_rotation:
-        point["micro_rotation"] = stepper.omega_n
-    if stepper.model.solid:
-        point["displacement"] = stepper.d_n
+def _write_fields(fields, sim):
+    point = {"velocity": sim.velocity, "pressure": sim.pressure}
+    if sim.model.micro_rotation:
+        point["micro_rotation"] = sim.micro_rotation
+    if sim.model.solid:
+        point["displacement"] = sim.displacement
     cells = None
-    if stepper.cell_tags is not None:
-        n_owned = compat.num_owned_cells(stepper.mesh)
+    if sim.cell_tags is not None:
+        n_owned = compat.num_owned_cells(sim.mesh)
         marker = np.zeros(n_owned)
-        ct = stepper.cell_tags
+        ct = sim.cell_tags
         owned = ct.indices < n_owned
         marker[ct.indices[owned]] = ct.values[owned]
         cells = {"subdomain": marker}
-    fields.write(stepper.t, point, cells)
+    fields.write(sim.t, point, cells)
 
 
-def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
+def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
     """summary.json: versions, sizes, timings, peak memory, periodic analysis, comparison with the reference."""
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB (Linux reports KiB)
     memory = {"peak_rss_mib_max_rank": comm.allreduce(rss, op=MPI.MAX),
               "peak_rss_mib_sum": comm.allreduce(rss, op=MPI.SUM)}
     summary = None
     if comm.rank == 0:
-        series = read_timeseries(out_dir / "timeseries.csv") if stepper.step_count else {}
-        steps = max(stepper.step_count, 1)
+        series = read_timeseries(out_dir / "timeseries.csv") if sim.step_count else {}
+        steps = max(sim.step_count, 1)
         summary = {
             "scene": scene.name,
             "status": status,
@@ -203,19 +202,19 @@ def _summary(scene, stepper, out_dir, n_vertices, setup_time, wall, status, mess
             "versions": {"cosserat_fsi": __version__, **compat.versions()},
             "ranks": comm.size,
             "mesh": {"geometry": scene.geometry.name, "level": scene.geometry.level, "vertices": n_vertices},
-            "model": stepper.model.describe(),
-            "dofs": stepper.num_dofs(),
-            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": stepper.step_count,
-                     "t_final": stepper.t},
+            "model": sim.model.describe(),
+            "dofs": sim.num_dofs(),
+            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": sim.step_count,
+                     "t_final": sim.t},
             "memory": memory,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
-                          "phases": dict(stepper.timers.totals)},
+                          "phases": dict(sim.timers.totals)},
             "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
         }
         # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
         summary["signals"], summary["periodic"] = classify_signals(series)
-        if getattr(stepper, "report", None) is not None:  # steady solve: Newton's iterations and residuals
-            summary["newton"] = stepper.report.as_dict()
+        if sim.report is not None:  # steady solve: Newton's iterations and residuals
+            summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:

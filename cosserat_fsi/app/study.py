@@ -14,8 +14,9 @@ levels × δt × scheme × solver options):
 
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
 ``<out>/runs/study-<name>/<run id>/`` (``<out>``: ``--out``, default the current directory), through the
-campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume. The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the
-benchmark's reference, wall time, time per step, the per-phase times and the peak memory, and
+campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume.
+The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the benchmark's
+reference, wall time, time per step, the per-phase times and the peak memory, and
 ``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto front.
 """
 
@@ -45,7 +46,7 @@ class Study(BaseModel):
     ranks: int = Field(default=1, ge=1)
 
 
-def load_study(path) -> Study:
+def load_study(path: str | Path) -> Study:
     """Read and check a study file; InputError (one line, naming the key) when it is not usable."""
     path = Path(path)
     try:
@@ -136,12 +137,13 @@ def pareto(points: list[tuple[float, float]]) -> list[int]:
     return front
 
 
-def write_report(study: Study, todo, out: Path) -> Path:
+def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path:
+    """Write ``<out>/study_<name>.md`` (and the Pareto plot) from the runs' summaries; returns its path."""
     rows, points, labels = [], [], []
     head = ("| run | vertices | dofs | status | " + " | ".join(f"error {k}" for k in study.observables)
             + " | wall (s) | s/step | " + " | ".join(PHASES) + " | peak memory (MiB) |")
     rows += [head, "|" + "---|" * (head.count("|") - 1)]
-    for overrides, folder in todo:
+    for _, folder in todo:
         m = _measure(study, folder)
         run = folder.name
         if m is None:

@@ -63,7 +63,7 @@ def _num(value) -> str:
     return "–" if value is None else f"{value:.6g}"
 
 
-def _benchmark_rows(summary: dict) -> list[tuple]:
+def benchmark_rows(summary: dict) -> list[tuple]:
     """(quantity, value, reference, error, tolerance, verdict) for each compared quantity."""
     bench = summary.get("benchmark") or {}
     name = bench.get("name")
@@ -88,19 +88,26 @@ def _benchmark_rows(summary: dict) -> list[tuple]:
                 verdict = "pass" if abs(err) <= tol else "FAIL"
             tol_text = "–" if tol is None else (f"{tol:.0e}" if exact else f"{100 * tol:g} %")
             rows.append((label, _num(e.get("value")), _num(e.get("reference")), error_text, tol_text, verdict))
+    seen = {r[0] for r in rows}
+    signals = summary.get("signals", {})
+    for label, tol in tolerances.items():  # a judged quantity without a value (e.g. not periodic yet): FAIL
+        if label not in seen:
+            state = signals.get(label.partition(".")[0], "no value")
+            rows.append((f"{label} ({state})", "–", "–", "–", f"{100 * tol:g} %" if not exact else f"{tol:.0e}",
+                         "FAIL"))
     return rows
 
 
 def _table(header: tuple, rows: list[tuple]) -> list[str]:
     widths = [max(len(str(r[i])) for r in [header] + rows) for i in range(len(header))]
-    fmt = "  ".join("{:<%d}" % w for w in widths)
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
     return [fmt.format(*header), fmt.format(*("-" * w for w in widths))] + [fmt.format(*r) for r in rows]
 
 
 def verdict_lines(summary: dict) -> list[str]:
     """The closing lines of a run: benchmark table, headline observables, wall time."""
     lines = []
-    rows = _benchmark_rows(summary)
+    rows = benchmark_rows(summary)
     if rows:
         bench = summary["benchmark"]["name"]
         judged = [r for r in rows if r[5] != "–"]

@@ -9,9 +9,9 @@ h = 0.04 on it growing to 0.06 at distance 0.1, both halved per level (unstructu
 Vertex counts (defaults, gmsh 4.8; 4.15 differs by < 0.4 %), L0 / L1 / L2 / L3: 452 / 1,602 / 6,089 / 23,808.
 """
 
-from typing import ClassVar, Literal
+from types import ModuleType
+from typing import Any, Literal
 
-import math
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
@@ -34,11 +34,11 @@ class Box(GeometryBase):
     def solid_cells(self) -> bool:
         return True
 
-    def msh_params(self) -> dict:
+    def msh_params(self) -> dict[str, Any]:
         return {"radius": float(self.radius)}
 
 
-def describe(params):
+def describe(params: dict[str, Any]) -> dict[str, Any]:
     """Tags, named points and dimensions of the geometry."""
     return {
         "cell_tags": {k: CELL_TAGS[k] for k in ("fluid", "solid")},
@@ -50,7 +50,7 @@ def describe(params):
     }
 
 
-def build(gmsh, scale, params):
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; ``scale`` multiplies all element sizes."""
     occ = gmsh.model.occ
     box, disk = occ.addRectangle(0, 0, 0, SIZE, SIZE), _gmsh.occ_disk(gmsh, *CENTRE, params["radius"])

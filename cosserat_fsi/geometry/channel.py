@@ -5,7 +5,8 @@ level; along the channel round(8 * length / height) (at least 1) times the same 
 L0: 81 vertices (8x8), L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
-from typing import ClassVar, Literal
+from types import ModuleType
+from typing import Any, Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
@@ -19,11 +20,11 @@ class Channel(GeometryBase):
     length: PositiveFloat = 1.0
     height: PositiveFloat = 1.0
 
-    def msh_params(self) -> dict:
+    def msh_params(self) -> dict[str, Any]:
         return {"length": float(self.length), "height": float(self.height)}
 
 
-def describe(params):
+def describe(params: dict[str, Any]) -> dict[str, Any]:
     """Tags and dimensions of the geometry."""
     return {
         "cell_tags": {"fluid": CELL_TAGS["fluid"]},
@@ -34,7 +35,7 @@ def describe(params):
     }
 
 
-def build(gmsh, scale, params):
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; divisions are 8 / ``scale`` across."""
     length, height = params["length"], params["height"]
     ny = round(8 / scale)

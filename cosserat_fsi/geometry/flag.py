@@ -9,7 +9,8 @@ per level; along the flag max(1, round(4 * length / thickness)) times the same f
 square 0.005 x 0.005 cells). Defaults: L0 355 vertices (71x5), L1 1,269 (141x9), L2 4,777 (281x17), ...
 """
 
-from typing import ClassVar, Literal
+from types import ModuleType
+from typing import Any, ClassVar, Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
@@ -28,11 +29,11 @@ class Flag(GeometryBase):
     def solid_cells(self) -> bool:
         return True
 
-    def msh_params(self) -> dict:
+    def msh_params(self) -> dict[str, Any]:
         return {"length": float(self.length), "thickness": float(self.height)}
 
 
-def describe(params):
+def describe(params: dict[str, Any]) -> dict[str, Any]:
     """Tags, named points and dimensions of the geometry."""
     length, thickness = params["length"], params["thickness"]
     return {
@@ -45,7 +46,7 @@ def describe(params):
     }
 
 
-def build(gmsh, scale, params):
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; 4 / ``scale`` divisions across the flag."""
     length, thickness = params["length"], params["thickness"]
     ny = round(4 / scale)

@@ -7,7 +7,8 @@ cylinder, h = 0.01 on it growing to 0.06 at distance 0.3, both halved per level.
 Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %): L0 687, L1 2,517, L2 9,700, L3 38,064.
 """
 
-from typing import ClassVar, Literal
+from types import ModuleType
+from typing import Any, ClassVar, Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
@@ -25,7 +26,7 @@ class SchaeferTurek(GeometryBase):
     name: Literal["schaefer_turek"] = "schaefer_turek"
 
 
-def describe(params):
+def describe(params: dict[str, Any]) -> dict[str, Any]:
     """Tags, named points and dimensions of the geometry."""
     return {
         "cell_tags": {"fluid": CELL_TAGS["fluid"]},
@@ -37,7 +38,7 @@ def describe(params):
     }
 
 
-def build(gmsh, scale, params):
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; ``scale`` multiplies all element sizes."""
     occ = gmsh.model.occ
     box, disk = occ.addRectangle(0, 0, 0, LENGTH, HEIGHT), _gmsh.occ_disk(gmsh, *CENTRE, RADIUS)

@@ -4,7 +4,8 @@ Structured (transfinite) triangles, "Left" diagonals, 8x8 divisions at level 0, 
 L0: 81 vertices, L1: 289, L2: 1,089, ... ((8*2^L + 1)^2).
 """
 
-from typing import ClassVar, Literal
+from types import ModuleType
+from typing import Any, Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
@@ -17,11 +18,11 @@ class Square(GeometryBase):
     name: Literal["square"] = "square"
     length: PositiveFloat = 1.0
 
-    def msh_params(self) -> dict:
+    def msh_params(self) -> dict[str, Any]:
         return {"size": float(self.length)}
 
 
-def describe(params):
+def describe(params: dict[str, Any]) -> dict[str, Any]:
     """Tags, named points and dimensions of the geometry."""
     size = params["size"]
     return {
@@ -33,7 +34,7 @@ def describe(params):
     }
 
 
-def build(gmsh, scale, params):
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; 8 / ``scale`` divisions per side."""
     n = round(8 / scale)
     _gmsh.transfinite_rectangle(gmsh, params["size"], params["size"], n, n, ("walls", "walls", "lid", "walls"))

@@ -11,7 +11,8 @@ Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %), L0 / L1 / L2 / L3 / seed:
 solid flag 784 / 2,843 / 10,916 / 42,416 / 2,179 (seed paper: 2,199); rigid 758 / 2,723 / 10,378 / 40,211 / 2,087.
 """
 
-from typing import ClassVar, Literal
+from types import ModuleType
+from typing import Any, ClassVar, Literal
 
 import math
 
@@ -40,11 +41,11 @@ class TurekHron(GeometryBase):
     def solid_cells(self) -> bool:
         return self.flag == "solid"
 
-    def msh_params(self) -> dict:
+    def msh_params(self) -> dict[str, Any]:
         return {"flag": self.flag}
 
 
-def describe(params):
+def describe(params: dict[str, Any]) -> dict[str, Any]:
     """Tags, named points and dimensions of the geometry."""
     cells = ["fluid", "solid"] if params["flag"] == "solid" else ["fluid"]
     return {
@@ -58,7 +59,7 @@ def describe(params):
     }
 
 
-def build(gmsh, scale, params):
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; ``scale`` multiplies all element sizes."""
     occ = gmsh.model.occ
     box = occ.addRectangle(0, 0, 0, LENGTH, HEIGHT)

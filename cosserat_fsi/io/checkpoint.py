@@ -1,4 +1,4 @@
-"""Checkpoints: the stepper's full state, one .npz per rank, plus meta.json (rank 0).
+"""Checkpoints: the full state of a Simulation, one .npz per rank, plus meta.json (rank 0).
 
 ``<run>/checkpoint/`` is replaced atomically (written to ``checkpoint.tmp`` and renamed), so a kill
 while writing leaves the previous checkpoint intact. Each rank stores its owned dofs keyed by their
@@ -31,7 +31,7 @@ def scene_fingerprint(scene) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def write_checkpoint(run_dir: Path, stepper, comm, meta: dict) -> None:
+def write_checkpoint(run_dir: Path, sim, comm, meta: dict) -> None:
     """Write the state of every rank and ``meta`` (+ step, t, ranks) into run_dir/checkpoint."""
     final, tmp = run_dir / "checkpoint", run_dir / "checkpoint.tmp"
     if comm.rank == 0:
@@ -39,12 +39,12 @@ def write_checkpoint(run_dir: Path, stepper, comm, meta: dict) -> None:
         tmp.mkdir()
     comm.barrier()
     with open(tmp / f"rank{comm.rank:04d}.npz", "wb") as f:
-        np.savez(f, **stepper.state())
+        np.savez(f, **sim.checkpoint())
         f.flush()
         os.fsync(f.fileno())
     comm.barrier()
     if comm.rank == 0:
-        meta = {"format": FORMAT, "ranks": comm.size, "step": stepper.step_count, "t": stepper.t, **meta}
+        meta = {"format": FORMAT, "ranks": comm.size, "step": sim.step_count, "t": sim.t, **meta}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2), encoding="utf-8")
         old = run_dir / "checkpoint.old"
         shutil.rmtree(old, ignore_errors=True)

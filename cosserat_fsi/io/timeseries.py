@@ -51,7 +51,7 @@ class TimeSeriesWriter:
         if self.file is None:
             return
         row = [t, *(values.get(c, math.nan) for c in self.columns)]
-        self.file.write(",".join("%.10e" % float(v) for v in row) + "\n")
+        self.file.write(",".join(f"{float(v):.10e}" for v in row) + "\n")
         self.file.flush()
 
     def close(self):

@@ -17,7 +17,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from cosserat_fsi import compat  # noqa: F401  (before dolfinx)
+from cosserat_fsi import compat  # before dolfinx
 from cosserat_fsi.errors import InputError
 import dolfinx.fem
 

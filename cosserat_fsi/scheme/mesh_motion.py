@@ -5,6 +5,11 @@ solid displacement, zero on the outer boundary. The extension is solved on the *
 total displacement (Laplace is linear, so this equals the sum of the seed's incremental extensions with a
 fixed operator): its matrix is assembled and factorised once, and the mesh never drifts. The Laplacian is
 stiffened by 1/|cell| (Jasak–Tuković), so small cells near the body deform less.
+
+A mesh motion is pluggable (Simulation._motion chooses it): it offers the P1 vertex space ``M``, the
+reference coordinates ``X0`` and ``node_dof``, the total ``displacement`` and ``velocity`` (P1),
+``place(displacement, t)``, ``move(velocity, dt, t, alpha, base) -> mesh velocity (P1)`` and
+``state_functions()`` (what a checkpoint keeps).
 """
 
 from __future__ import annotations
@@ -14,13 +19,12 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import DivergenceError
+from ..tags import SOLID
 
 import dolfinx
 import dolfinx.fem.petsc as fem_petsc
 import ufl
 from petsc4py import PETSc
-
-SOLID = 2
 
 
 class _MovingMesh:
@@ -37,6 +41,10 @@ class _MovingMesh:
         self.node_dof = np.empty(len(mesh.geometry.x), dtype=np.int64)
         self.node_dof[nodes.ravel()] = dofs.ravel()
         self.ref_area = self._areas()
+
+    def state_functions(self) -> dict:
+        """The functions a checkpoint must keep, by name (the total displacement and velocity)."""
+        return {"mesh_displacement": self.displacement, "mesh_velocity_P1": self.velocity}
 
     def _areas(self) -> np.ndarray:
         """Signed areas of the local cells (positive for the reference orientation)."""
@@ -110,6 +118,9 @@ class MeshMotion(_MovingMesh):
         self.ksp.setOperators(self.A)
         self.b = compat.create_vector(self.L, M)
         self._new = dolfinx.fem.Function(M)
+
+    def state_functions(self) -> dict:
+        return {**super().state_functions(), "solid_displacement": self.solid_displacement}
 
     def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base: np.ndarray | None = None):
         """Solid vertices: s^{n+1} = s* + (δt/α) u^{n+1}, as the displacement d, with s* = s^n (first order)

@@ -9,7 +9,7 @@ splits the form; a steady solver passes grad(u) u with a Function and differenti
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -32,7 +32,7 @@ class Model:
     moving_mesh: bool
 
     @classmethod
-    def from_scene(cls, scene) -> "Model":
+    def from_scene(cls, scene) -> Model:
         solid = bool(scene.has_solid)
         return cls(micro_rotation=bool(scene.has_micropolar), solid=solid, moving_mesh=solid)
 
@@ -71,6 +71,11 @@ class Problem:
         self.space = space if space is not None else mixed_space(mesh, self.model.micro_rotation)
         self.dx = ufl.dx(domain=mesh)
         self.dx_solid = ufl.dx(domain=mesh, subdomain_data=cell_tags)(SOLID) if self.model.solid else None
+        self.solid_velocity_dofs = None  # the velocity (and displacement) dofs of the solid cells
+        if self.model.solid:
+            solid_cells = cell_tags.indices[cell_tags.values == SOLID]
+            self.solid_velocity_dofs = dolfinx.fem.locate_dofs_topological(
+                self.space.space("velocity"), mesh.topology.dim, solid_cells)
         self._source_updates: list[Callable[[float], None]] = []
         self._coefficients(exact)
 

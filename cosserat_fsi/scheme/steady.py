@@ -18,24 +18,32 @@ from __future__ import annotations
 import logging
 
 from .. import compat
-from ..errors import DivergenceError
+from ..errors import DivergenceError, InputError
+from .characteristics import PointLocator
 from .newton import Newton, NewtonReport
-from .stepper import Stepper
 
+import dolfinx
 import ufl
+from petsc4py import PETSc
 
 log = logging.getLogger("cosserat_fsi")
 
 
-def make_stepper(scene, mesh, cell_tags, facet_tags, comm, exact=None):
-    """The stepper of a scene: time stepping, or the steady solver of its kind."""
-    if scene.time.scheme != "steady":
-        return Stepper(scene, mesh, cell_tags, facet_tags, comm, exact=exact)
-    if scene.has_solid:
+def steady_stepper(problem, state, boundary, motion, timers, comm):
+    """The steady solver of a scene's kind (Simulation's stepper for ``time.scheme: steady``)."""
+    if problem.model.solid:
         from .steady_solid import SteadySolid
 
-        return SteadySolid(scene, mesh, cell_tags, facet_tags, comm, exact=exact)
-    return SteadyFluid(scene, mesh, cell_tags, facet_tags, comm, exact=exact)
+        if problem.scene.has_fluid and problem.model.micro_rotation:
+            raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
+                             "steady solid solve has no micro-rotation); use characteristics1 or characteristics2")
+
+        log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
+                 "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
+        return SteadySolid(problem, state, boundary, motion, timers, comm)
+    log.info("steady: Newton on the steady equations (convection (u.grad)u%s), MUMPS",
+             ", (u.grad)omega" if problem.model.micro_rotation else "")
+    return SteadyFluid(problem, state, boundary, motion, timers, comm)
 
 
 def steady_time(scene) -> float:
@@ -48,75 +56,91 @@ def steady_time(scene) -> float:
     return max(ramps)
 
 
-class SteadyMixin:
-    """The run-loop face of a steady solver: one step, a Newton report, failure recorded for the runner."""
+class SteadyStepper:
+    """The run-loop face of a steady solver (the Simulation's stepper): one step, a Newton report, failure
+    recorded for the runner. Subclasses build ``space``, ``solution``, ``residual`` and ``_solve``."""
 
-    steady = True  # observables: the momentum residual's inertia is the convective acceleration
     failure: str | None = None
     report: NewtonReport | None = None
 
-    def _finish(self, report: NewtonReport, before_move):
+    def __init__(self, problem, state, boundary, motion, timers, comm):
+        self.problem, self.state, self.boundary, self.motion = problem, state, boundary, motion
+        self.timers, self.comm = timers, comm
+        self.scene, self.mesh = problem.scene, problem.mesh
+        self.dx_inertia = ufl.dx(domain=self.mesh)  # the observables' residual forces use it too
+        self.locator = PointLocator(self.mesh)
+        self.newton = None
+
+    def constant(self, value):
+        return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(value))
+
+    def split_solution(self) -> tuple:
+        """(u, p, ω or None) of the solution, as UFL expressions."""
+        parts = ufl.split(self.solution)
+        sp = self.space
+        omega = parts[sp.index("micro_rotation")] if "micro_rotation" in sp.names else None
+        return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
+
+    def _newton(self):
+        if self.newton is None:
+            with self.timers("setup_newton"):
+                tm = self.scene.time
+                self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
+                                     compiled=self.compiled, max_iterations=tm.newton_max_iterations,
+                                     rtol=tm.newton_rtol, name="newton")
+        return self.newton
+
+    def advance(self, observe=None) -> None:
+        """Solve the steady equations at :func:`steady_time` and call ``observe()``."""
+        t = steady_time(self.scene)
+        self.boundary.update(t)
+        self.problem.update_sources(t)
+        report = self._solve(t)
         self.report = report
-        self.t = steady_time(self.scene)
-        self.step_count += 1
-        if before_move is not None:
-            before_move()
+        self.state.t = t
+        self.state.step_count += 1
+        if observe is not None:
+            observe()
         if not report.converged:
             last = report.history[-1] if report.history else {}
-            self.failure = (f"Newton did not converge ({report.message}; last |F| = "
-                            f"{last.get('residual', float('nan')):.3e}, relative {last.get('relative', float('nan')):.2e}); "
-                            f"the last iterate and the residual history are written")
+            residual, relative = last.get("residual", float("nan")), last.get("relative", float("nan"))
+            self.failure = (f"Newton did not converge ({report.message}; last |F| = {residual:.3e}, "
+                            f"relative {relative:.2e}); the last iterate and the residual history are written")
 
-    def check(self):
+    def check(self) -> None:
         """Raise DivergenceError (exit 3) if the solve failed; called by the runner after the outputs."""
         if self.failure:
             raise DivergenceError(self.failure)
 
+    def restored(self) -> None:
+        """Nothing to rebuild: a steady solve starts from the state."""
 
-class SteadyFluid(SteadyMixin, Stepper):
+
+class SteadyFluid(SteadyStepper):
     """Steady Navier–Stokes (and micropolar) flow by Newton on the mixed u (× ω) × p space."""
+
+    def __init__(self, problem, state, boundary, motion, timers, comm):
+        super().__init__(problem, state, boundary, motion, timers, comm)
+        self.space = problem.space
+        self.solution = dolfinx.fem.Function(self.space.W, name="state")
+        self.convection = self.constant(1.0)  # continuation parameter (the Reynolds number's fraction)
+        u, _, omega = problem.split(self.solution)
+        micro = self.convection * ufl.dot(u, ufl.grad(omega)) if omega is not None else None
+        self.residual = problem.residual(self.solution, ufl.TestFunctions(self.space.W),
+                                         acceleration=self.acceleration(u), micro_acceleration=micro)
+        self.compiled = compat.form(self.residual)
 
     def acceleration(self, u):
         """The steady material acceleration (u·∇)u = grad(u) u, times the continuation parameter."""
         return self.convection * ufl.grad(u) * u
 
-    def _forms(self):
-        """F(w; test) = the problem's residual with the accelerations (u·∇)u and (u·∇)ω (seed eqs. 31–32)."""
-        pr, w = self.problem, self.w
-        self.convection = self._const(1.0)  # continuation parameter (the Reynolds number's fraction)
-        self.dx_inertia = ufl.dx(domain=self.mesh)  # the observables' residual forces use it too
-        u, _, omega = pr.split(w)
-        micro = self.convection * ufl.dot(u, ufl.grad(omega)) if omega is not None else None
-        self.residual = pr.residual(w, ufl.TestFunctions(pr.space.W), acceleration=self.acceleration(u),
-                                    micro_acceleration=micro)
-        self.newton = None
-        self.a_form, self.L_form = None, compat.form(self.residual)
-
-    def _make_solver(self):
-        return None
-
-    def advance(self, before_move=None):
-        """Solve the steady equations (Newton from the initial state, continuation if needed)."""
-        t = steady_time(self.scene)
-        for update in self._updates:
-            update(t)
-        self.problem.update_sources(t)
-        sp, w = self.space, self.w
-        if self.newton is None:
-            with self.timers("setup_newton"):
-                tm = self.scene.time
-                self.newton = Newton(self.residual, w, self.bcs, self.comm, compiled=self.L_form, max_iterations=tm.newton_max_iterations,
-                                     rtol=tm.newton_rtol, name="newton")
-        w.x.array[sp.dofs("velocity")] = self.u_n.x.array
-        w.x.array[sp.dofs("pressure")] = self.p_n.x.array
-        if self.model.micro_rotation:
-            w.x.array[sp.dofs("micro_rotation")] = self.omega_n.x.array
-        self.newton.apply_bcs()
-        initial = w.x.array.copy()
+    def _solve(self, t) -> NewtonReport:
+        """Newton from the state (continuation if needed); the state takes the result."""
+        newton = self._newton()
+        self.state.to_mixed(self.solution, self.space)
+        newton.apply_bcs()
+        initial = self.solution.x.array.copy()
         with self.timers("newton"):
-            report = self.newton.continuation(self.convection, self.scene.time.newton_continuation, initial)
-        self.u_n.x.array[:] = w.x.array[sp.dofs("velocity")]
-        self.p_n.x.array[:] = w.x.array[sp.dofs("pressure")]
-        if self.model.micro_rotation:
-            self.omega_n.x.array[:] = w.x.array[sp.dofs("micro_rotation")]
-        self._finish(report, before_move)
+            report = newton.continuation(self.convection, self.scene.time.newton_continuation, initial)
+        self.state.from_mixed(self.solution, self.space)
+        return report

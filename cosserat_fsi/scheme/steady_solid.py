@@ -22,10 +22,10 @@ import logging
 
 from .. import compat
 from ..physics import lagrangian
-from .newton import Newton
+from ..tags import FACET_TAGS, FLUID, SOLID
+from .boundary import BoundaryConditions
 from .spaces import MixedSpace
-from .steady import SteadyMixin, steady_time
-from .stepper import FLUID, SOLID, TAGS, Stepper
+from .steady import SteadyStepper
 
 import dolfinx
 import numpy as np
@@ -47,74 +47,60 @@ def displacement_space(mesh) -> MixedSpace:
     return MixedSpace(W=W, names=names, collapsed={n: compat.collapse(W.sub(i)) for i, n in enumerate(names)})
 
 
-class SteadySolid(SteadyMixin, Stepper):
+class SteadySolid(SteadyStepper):
     """Static solid, or steady FSI, by Newton on the reference mesh (continuation in the load if needed)."""
+
+    def __init__(self, problem, state, boundary, motion, timers, comm):
+        super().__init__(problem, state, boundary, motion, timers, comm)
+        mesh, pr = self.mesh, problem
+        self.space = sp = displacement_space(mesh)
+        self.solution = dolfinx.fem.Function(sp.W, name="state")
+        # the boundary data of the scene on this space (velocity: inflow, no-slip), d = 0 on the fixed walls
+        self.boundary = BoundaryConditions(pr, comm, space=sp)
+        Vd = sp.space("displacement")
+        present = [name for name in FIXED
+                   if comm.allreduce(int(np.any(pr.facet_tags.values == FACET_TAGS[name])), op=MPI.SUM)]
+        dofs = dolfinx.fem.locate_dofs_topological((sp.sub("displacement"), Vd), mesh.topology.dim - 1,
+                                                   pr.facets(*present))
+        self.boundary.bcs.append(dolfinx.fem.dirichletbc(dolfinx.fem.Function(Vd), dofs, sp.sub("displacement")))
+        u, d, p = ufl.split(self.solution)
+        phi, psi, q = ufl.TestFunctions(sp.W)
+        dx = ufl.dx(domain=mesh, subdomain_data=pr.cell_tags)
+        self.load = self.constant(1.0)  # continuation parameter: fraction of the body force and convection
+        F = lagrangian.solid_statics(d, p, phi, q, mu_s=pr.mu_s, body_force=self.load * pr.body_force,
+                                     dx_solid=dx(SOLID))
+        F = F + lagrangian.rest_and_extension(u, d, psi, dx_solid=dx(SOLID), dx_fluid=dx(FLUID))
+        self.has_fluid_cells = bool(comm.allreduce(int(np.any(pr.cell_tags.values == FLUID)), op=MPI.SUM))
+        if self.has_fluid_cells:
+            F = F + lagrangian.ale_navier_stokes(u, p, d, phi, q, rho=pr.rho, mu=pr.mu, body_force=pr.body_force,
+                                                 penalty=pr.penalty, dx_fluid=dx(FLUID), convection=self.load)
+        self.residual = F
+        self.compiled = compat.form(F)
 
     def acceleration(self, u):
         """The steady material acceleration (u·∇)u (observables: the residual forces on the moved mesh)."""
         return ufl.grad(u) * u
 
-    def _forms(self):
-        self.dx_inertia = ufl.dx(domain=self.mesh)
-        self.space = sp = displacement_space(self.mesh)
-        self.w = dolfinx.fem.Function(sp.W, name="state")
-        # the state the run loop reads, on the collapsed spaces of this mixed space
-        self.u_n = dolfinx.fem.Function(sp.space("velocity"), name="velocity")
-        self.d_n = dolfinx.fem.Function(sp.space("displacement"), name="displacement")
-        self.p_n = dolfinx.fem.Function(sp.space("pressure"), name="pressure")
-        u, d, p = ufl.split(self.w)
-        phi, psi, q = ufl.TestFunctions(sp.W)
-        dx = ufl.dx(domain=self.mesh, subdomain_data=self.cell_tags)
-        self.load = self._const(1.0)  # continuation parameter: fraction of the body force and convection
-        F = lagrangian.solid_statics(d, p, phi, q, mu_s=self.mu_s, body_force=self.load * self.f, dx_solid=dx(SOLID))
-        F = F + lagrangian.rest_and_extension(u, d, psi, dx_solid=dx(SOLID), dx_fluid=dx(FLUID))
-        self.has_fluid_cells = bool(self.comm.allreduce(int(np.any(self.cell_tags.values == FLUID)), op=MPI.SUM))
-        if self.has_fluid_cells:
-            F = F + lagrangian.ale_navier_stokes(u, p, d, phi, q, rho=self.rho, mu=self.mu, body_force=self.f,
-                                                 penalty=self.problem.penalty, dx_fluid=dx(FLUID), convection=self.load)
-        self.residual = F
-        self.newton = None
-        self.a_form, self.L_form = None, compat.form(F)
-
-    def _boundary_conditions(self):
-        super()._boundary_conditions()  # velocity: inflow, no-slip (on this space: see _forms)
-        sp = self.space
-        Vd = sp.space("displacement")
-        zero = dolfinx.fem.Function(Vd)
-        present = [name for name in FIXED
-                   if self.comm.allreduce(int(np.any(self.facet_tags.values == TAGS[name])), op=MPI.SUM)]
-        facets = self.facets(*present)
-        dofs = dolfinx.fem.locate_dofs_topological((sp.sub("displacement"), Vd), self.mesh.topology.dim - 1, facets)
-        self.bcs.append(dolfinx.fem.dirichletbc(zero, dofs, sp.sub("displacement")))
-
-    def _make_solver(self):
-        return None
-
-    def advance(self, before_move=None):
-        """Solve the steady problem, then move the mesh to the deformed configuration and observe."""
-        t = steady_time(self.scene)
-        for update in self._updates:
-            update(t)
-        self.problem.update_sources(t)
-        sp, w = self.space, self.w
-        if self.newton is None:
-            with self.timers("setup_newton"):
-                tm = self.scene.time
-                self.newton = Newton(self.residual, w, self.bcs, self.comm, compiled=self.L_form,
-                                     max_iterations=tm.newton_max_iterations, rtol=tm.newton_rtol, name="newton")
+    def _solve(self, t):
+        """Solve the steady problem from rest, then move the mesh to the deformed configuration."""
+        newton = self._newton()
+        w, sp, state = self.solution, self.space, self.state
         w.x.array[:] = 0.0
-        self.newton.apply_bcs()
+        newton.apply_bcs()
         initial = w.x.array.copy()
         with self.timers("newton"):
-            report = self.newton.continuation(self.load, self.scene.time.newton_continuation, initial)
-        for name, f in (("velocity", self.u_n), ("displacement", self.d_n), ("pressure", self.p_n)):
-            f.x.array[:] = w.x.array[sp.dofs(name)]
+            report = newton.continuation(self.load, self.scene.time.newton_continuation, initial)
+        # the state's fields live on the problem's spaces: same elements, so the interpolation is a copy
+        for name, f in (("velocity", state.velocity), ("displacement", state.displacement),
+                        ("pressure", state.pressure)):
+            part = dolfinx.fem.Function(sp.space(name))
+            part.x.array[:] = w.x.array[sp.dofs(name)]
+            f.interpolate(part)
         with self.timers("mesh_motion"):
             m = self.motion
             vertex = dolfinx.fem.Function(m.M)
-            vertex.interpolate(self.d_n)
+            vertex.interpolate(state.displacement)
             m.displacement.x.array[:] = vertex.x.array
             m.place(vertex.x.array, t)
-            self.chars.locator.update()
-        self._finish(report, before_move)
-
+            self.locator.update()
+        return report

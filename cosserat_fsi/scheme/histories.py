@@ -1,0 +1,168 @@
+"""The histories α·h of the characteristics scheme (seed §5.1) and the accelerations built from them.
+
+First order (seed): α = 1, h = u^n∘X^n with the feet x − δt (u^n − w)(x) (w the mesh velocity). BDF2:
+α = 3/2, α h = 2 u^n∘X¹ − ½ u^{n−1}∘X², feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}; on a moving mesh the
+feet are located in the configurations u^n and u^{n−1} were computed on. α h lives at the quadrature points
+of the inertia terms (FreeFEM's ``convect``: the feet of the quadrature points, evaluated exactly) or, with
+``time.characteristics: nodes``, at the P2 nodes (ω alone with ``micropolar.nodal_characteristics``).
+The low-level point location and evaluation are in characteristics.py.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import compat
+from .characteristics import Characteristics, PointLocator, evaluate
+from .state import State
+
+import dolfinx
+import ufl
+
+
+class Histories:
+    """α·h for u (``velocity``) and ω (``micro_rotation`` or None), the measure ``dx_inertia`` of the
+    inertia terms, and the point locators: ``chars.locator`` on the current mesh, ``earlier_locators``
+    (Ω of u^n, Ω of u^{n−1}) for BDF2 on a moving mesh."""
+
+    def __init__(self, scene, problem, dt: float, comm, moving: bool):
+        mesh, sp = problem.mesh, problem.space
+        self.dt, self.comm, self.moving = dt, comm, moving
+        self.micro = problem.model.micro_rotation
+        V = sp.space("velocity")
+        t = scene.time
+        self.degree = t.quadrature_degree if t.characteristics == "quadrature" else None
+        if self.degree:
+            self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (2,)))
+            self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.degree})
+        else:
+            self.velocity = dolfinx.fem.Function(V)
+            self.dx_inertia = ufl.dx(domain=mesh)
+        self.omega_apart = bool(self.micro and self.degree and scene.micropolar.nodal_characteristics)
+        self.micro_rotation = None
+        if self.micro:
+            S = sp.space("micro_rotation")
+            at_quadrature = self.degree and not scene.micropolar.nodal_characteristics
+            self.micro_rotation = dolfinx.fem.Function(
+                compat.quadrature_space(mesh, self.degree) if at_quadrature else S)
+        self.chars = Characteristics(V, sp.space("micro_rotation") if self.micro else None, comm)
+        self.earlier_locators = (self.chars.locator, self.chars.locator)
+        self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
+
+    # ----------------------------------------------------------------------------- accelerations
+    @staticmethod
+    def acceleration(u, history, alpha, inv_dt):
+        """(α u − α h)/δt: the scheme's material acceleration of ``u`` (``history`` = α h)."""
+        return (alpha * u - history) * inv_dt
+
+    # ------------------------------------------------------------------------------------ update
+    def update(self, alpha: float, state: State, solve_displacement=None) -> None:
+        """Set α·h from ``state`` (first order, α = 1, or BDF2 feet). ``solve_displacement``: the P1 mesh
+        displacement of the configuration the step is solved on (BDF2 on a moving mesh)."""
+        chars, micro, degree = self.chars, self.micro, self.degree
+        with_omega = micro and not self.omega_apart
+        current = [state.velocity] + ([state.micro_rotation] if with_omega else [])
+        previous = [state.velocity_prev] + ([state.micro_rotation_prev] if with_omega else [])
+        hist = self._values(alpha, degree, state, current, previous, solve_displacement)
+        if degree:
+            _set_quadrature(self.velocity, hist[0])
+            if with_omega:
+                _set_quadrature(self.micro_rotation, hist[1])
+        else:
+            n = chars.n_nodes
+            self.velocity.x.array[: n * 2] = hist[0].ravel()
+            self.velocity.x.scatter_forward()
+        if self.omega_apart or (micro and not degree):
+            values = (self._values(alpha, None, state, [state.micro_rotation], [state.micro_rotation_prev],
+                                   solve_displacement)[0]
+                      if self.omega_apart else hist[1])
+            self.micro_rotation.x.array[:] = chars.to_S(values[:, 0])
+            self.micro_rotation.x.scatter_forward()
+
+    def _values(self, alpha, degree, state, fns_n, fns_nm1, solve_displacement) -> list:
+        """α·h of ``fns_n`` (and ``fns_nm1`` for BDF2) at the quadrature points of ``degree`` in every
+        cell, or at the local P2 nodes (``degree`` None)."""
+        chars, comm, dt = self.chars, self.comm, self.dt
+        if degree:
+            x, cells = chars.quadrature_nodes(degree)
+
+            def at_x(f):
+                return chars.at_quadrature_nodes(f, degree)
+        else:
+            x, cells = chars.nodes(), None
+
+            def at_x(f):
+                return chars.nodal(f)
+        u_x = at_x(state.velocity)
+        if alpha == 1.0:
+            w_x = at_x(state.mesh_velocity) if self.moving else 0.0
+            return self._at_feet(x, x - dt * _pad(u_x - w_x), fns_n, cells)
+        if not self.moving:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
+            u_star = _pad(2.0 * u_x - at_x(state.velocity_prev))
+            vals1 = self._at_feet(x, x - dt * u_star, fns_n, cells)
+            vals2 = self._at_feet(x, x - 2.0 * dt * u_star, fns_nm1, cells)
+        else:
+            # moving mesh: u^n (and ω^n) live on Ω^{n−1}, u^{n−1} on Ω^{n−2}, where they were computed;
+            # the feet (physical points) are located in those configurations of the mesh. A mesh-
+            # velocity shift of the feet (as in the first-order scheme) is only O(δt²) accurate
+            # per step, which would make the scheme first order.
+            # Points outside such an earlier configuration (its boundary moved: a solid-only scene)
+            # are pulled back to the image of x in it (same cell, same barycentric coordinates).
+            loc_n, loc_nm1 = self.earlier_locators
+            x_n, x_nm1 = (self._earlier_position(x, loc, disp, degree, solve_displacement)
+                          for loc, disp in ((loc_n, state.configuration_n), (loc_nm1, state.configuration_nm1)))
+            (un_x,) = evaluate(loc_n, [state.velocity], x, x_n, comm, hint=cells)
+            (unm1_x,) = evaluate(loc_nm1, [state.velocity_prev], x, x_nm1, comm, hint=cells)
+            u_star = _pad(2.0 * un_x - unm1_x)
+            vals1 = evaluate(loc_n, fns_n, x - dt * u_star, x_n, comm, hint=cells)
+            vals2 = evaluate(loc_nm1, fns_nm1, x - 2.0 * dt * u_star, x_nm1, comm, hint=cells)
+        return [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
+
+    def _earlier_position(self, x, locator, displacement, degree, solve_displacement):
+        """Where the points x of the current mesh were in an earlier configuration of it (``locator``,
+        reached with the P1 vertex ``displacement``): the same cell and barycentric coordinates."""
+        if degree:
+            return self.chars.quadrature_nodes(degree, locator)[0]
+        shift = self._shift
+        shift.interpolate(displacement)
+        current = self._shift_current
+        current.interpolate(solve_displacement)
+        return x - _pad(self.chars.nodal(current) - self.chars.nodal(shift))
+
+    def _at_feet(self, anchors, feet, functions, cells=None):
+        return evaluate(self.chars.locator, functions, feet, anchors, self.comm, hint=cells)
+
+    # ------------------------------------------------------------------------------ locators
+    def mesh_moved(self, rebuild: bool) -> None:
+        """The mesh moved: ``rebuild`` a new locator (BDF2 keeps the old one as an earlier configuration)
+        or update the current one in place."""
+        if rebuild:
+            self.chars.locator = PointLocator(self.chars.locator.mesh)
+        else:
+            self.chars.locator.update()
+
+    def remember_configuration(self) -> None:
+        """BDF2 on a moving mesh, after the solve: the current configuration is the one u^n was computed
+        on; the previous one that of u^{n−1}."""
+        self.earlier_locators = (self.chars.locator, self.earlier_locators[0])
+
+    def relocate(self, motion, state: State) -> None:
+        """After a restore: locators on the restored mesh and, for BDF2, on its earlier configurations."""
+        self.chars.locator.update()
+        if state.configuration_n is not None:
+            self.earlier_locators = tuple(
+                PointLocator(self.chars.locator.mesh, motion.X0 + f.x.array.reshape(-1, 2)[motion.node_dof])
+                for f in (state.configuration_n, state.configuration_nm1))
+
+
+def _set_quadrature(f, values):
+    """Write values at the quadrature points (cell-major, as quadrature_nodes) into ``f``."""
+    dofs = compat.cell_dofs(f.function_space)
+    bs = f.function_space.dofmap.index_map_bs
+    arr = f.x.array.reshape(-1, bs)
+    arr[dofs[: len(values) // dofs.shape[1]].ravel()] = values.reshape(-1, bs)
+
+
+def _pad(v):
+    """(n, 2) → (n, 3) with z = 0 (points and displacements in dolfinx are 3D)."""
+    return np.hstack([v, np.zeros((len(v), 1))]) if np.ndim(v) == 2 and v.shape[1] == 2 else v

@@ -1,0 +1,164 @@
+"""The state of a run: every field the next steps depend on, its checkpoint and (issue 13) its transfer.
+
+A checkpoint stores this rank's owned dofs keyed by their coordinates on the reference mesh, so a restart
+does not depend on the partition (dolfinx's is not deterministic). The keys are those of checkpoint
+format 1 (io/checkpoint.py): ``u_n``, ``u_nm1``, ``p_n``, ``mesh_velocity``, ``omega_n``, ``omega_nm1``,
+``d_n``, ``d_nm1`` (BDF2), ``mesh_displacement_prev``/``_n``/``_nm1`` (BDF2 on a moving mesh) and the
+mesh motion's own ``mesh_displacement``, ``mesh_velocity_P1``, ``solid_displacement``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..errors import InputError
+from .problem import Problem
+
+import dolfinx
+
+
+class State:
+    """u^n, p^n, ω^n (or None), d^n (or None), their BDF2 levels and the mesh displacement levels.
+
+    Fields (dolfinx Functions on the collapsed spaces of ``problem.space``):
+    ``velocity``, ``velocity_prev`` (u^{n−1}), ``pressure``, ``micro_rotation``/``micro_rotation_prev``
+    (None without micro-rotation), ``displacement``/``displacement_prev`` (d^n, d^{n−1}; None without
+    solid), ``mesh_velocity`` (P2, (x^n − x^{n−1})/δt). With BDF2 on a moving mesh (P1 vertex fields, else
+    None): ``mesh_displacement_prev`` (D^{n−1}), ``configuration_n`` and ``configuration_nm1`` (the mesh
+    displacements of the configurations u^n and u^{n−1} were computed on). ``t`` and ``step_count``.
+    """
+
+    def __init__(self, problem: Problem, order: int, motion=None):
+        sp, model = problem.space, problem.model
+        self.order, self.motion = order, motion
+        V = sp.space("velocity")
+        self.velocity = dolfinx.fem.Function(V, name="velocity")
+        self.velocity_prev = dolfinx.fem.Function(V)
+        self.pressure = dolfinx.fem.Function(sp.space("pressure"), name="pressure")
+        self.micro_rotation = self.micro_rotation_prev = None
+        if model.micro_rotation:
+            S = sp.space("micro_rotation")
+            self.micro_rotation = dolfinx.fem.Function(S, name="micro_rotation")
+            self.micro_rotation_prev = dolfinx.fem.Function(S)
+        self.displacement = self.displacement_prev = None
+        if model.solid:
+            self.displacement = dolfinx.fem.Function(V, name="displacement")
+            self.displacement_prev = dolfinx.fem.Function(V)
+        self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
+        self.mesh_displacement_prev = self.configuration_n = self.configuration_nm1 = None
+        if motion is not None and order == 2:
+            self.mesh_displacement_prev = dolfinx.fem.Function(motion.M)
+            self.configuration_n = dolfinx.fem.Function(motion.M)
+            self.configuration_nm1 = dolfinx.fem.Function(motion.M)
+        self.t = 0.0
+        self.step_count = 0
+        self._reference = {name: f.function_space.tabulate_dof_coordinates()[:, :2].copy()
+                           for name, f in self.functions().items()}  # before the mesh moves
+
+    def functions(self) -> dict[str, dolfinx.fem.Function]:
+        """Every function of the state, by its checkpoint name."""
+        fns = {"u_n": self.velocity, "u_nm1": self.velocity_prev, "p_n": self.pressure,
+               "mesh_velocity": self.mesh_velocity}
+        if self.micro_rotation is not None:
+            fns.update(omega_n=self.micro_rotation, omega_nm1=self.micro_rotation_prev)
+        if self.displacement is not None:
+            fns["d_n"] = self.displacement
+            if self.order == 2:
+                fns["d_nm1"] = self.displacement_prev
+        if self.configuration_n is not None:
+            fns.update(mesh_displacement_prev=self.mesh_displacement_prev,
+                       mesh_displacement_n=self.configuration_n, mesh_displacement_nm1=self.configuration_nm1)
+        if self.motion is not None:
+            fns.update(self.motion.state_functions())
+        return fns
+
+    def shift(self, solution, space) -> None:
+        """New time level: the previous levels take the current values, the current ones ``solution``
+        (the mixed Function of ``space``)."""
+        x = solution.x.array
+        self.velocity_prev.x.array[:] = self.velocity.x.array
+        self.velocity.x.array[:] = x[space.dofs("velocity")]
+        self.pressure.x.array[:] = x[space.dofs("pressure")]
+        if self.micro_rotation is not None:
+            self.micro_rotation_prev.x.array[:] = self.micro_rotation.x.array
+            self.micro_rotation.x.array[:] = x[space.dofs("micro_rotation")]
+
+    def from_mixed(self, w, space) -> None:
+        """Set u, p (and ω) from the mixed Function ``w`` of ``space`` (no new time level)."""
+        self.velocity.x.array[:] = w.x.array[space.dofs("velocity")]
+        self.pressure.x.array[:] = w.x.array[space.dofs("pressure")]
+        if self.micro_rotation is not None:
+            self.micro_rotation.x.array[:] = w.x.array[space.dofs("micro_rotation")]
+
+    def to_mixed(self, w, space) -> None:
+        """Write u, p (and ω) into the mixed Function ``w`` of ``space``."""
+        w.x.array[space.dofs("velocity")] = self.velocity.x.array
+        w.x.array[space.dofs("pressure")] = self.pressure.x.array
+        if self.micro_rotation is not None:
+            w.x.array[space.dofs("micro_rotation")] = self.micro_rotation.x.array
+
+    def set_initial(self, problem: Problem, exact=None) -> None:
+        """Rest (the solid with its initial velocity, the clamp at rest), or the exact solution at t = 0."""
+        scene = problem.scene
+        if problem.model.solid and any(scene.solid.initial_velocity):
+            values = self.velocity.x.array.reshape(-1, 2)
+            values[problem.solid_velocity_dofs] = scene.solid.initial_velocity
+            fixed = dolfinx.fem.locate_dofs_topological(self.velocity.function_space,
+                                                        problem.mesh.topology.dim - 1,
+                                                        problem.facets(*problem.no_slip_boundaries()))
+            values[fixed] = 0.0
+        if exact is None:
+            return
+        self.velocity.interpolate(lambda x: exact.velocity(x, 0.0))
+        if self.micro_rotation is not None:
+            self.micro_rotation.interpolate(lambda x: exact.micro_rotation(x, 0.0))
+
+    # ---------------------------------------------------------------------------- checkpoints
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        """This rank's owned dofs keyed by their reference coordinates (+ t, step_count)."""
+        out = {"t": np.array(self.t), "step_count": np.array(self.step_count)}
+        for name, f in self.functions().items():
+            n = f.function_space.dofmap.index_map.size_local
+            bs = f.function_space.dofmap.index_map_bs
+            out[name + ".x"] = self._reference[name][:n]
+            out[name + ".v"] = f.x.array.reshape(-1, bs)[:n]
+        return out
+
+    def restore(self, states: list[dict], scale_length: float) -> None:
+        """Inverse of :meth:`checkpoint`, from the checkpoints of all ranks of the run that wrote them
+        (``scale_length``: the largest coordinate of the mesh, to round the keys). InputError if they do
+        not fit. The mesh itself is not moved here."""
+        scale = 1e9 / max(1.0, scale_length)
+
+        def keys(x):
+            return [tuple(k) for k in np.rint(x * scale).astype(np.int64)]
+
+        for name, f in self.functions().items():
+            if any(name + ".v" not in s for s in states):
+                raise InputError(f"--restart: the checkpoint has no {name!r} (another scene)")
+            bs = f.function_space.dofmap.index_map_bs
+            saved = dict(zip(keys(np.concatenate([s[name + ".x"] for s in states])),
+                             np.concatenate([s[name + ".v"] for s in states]).reshape(-1, bs)))
+            try:
+                values = np.array([saved[k] for k in keys(self._reference[name])])
+            except KeyError:
+                raise InputError(f"--restart: checkpoint field {name!r} does not fit this mesh") from None
+            f.x.array[:] = values.ravel()
+        self.t, self.step_count = float(states[0]["t"]), int(states[0]["step_count"])
+
+    # ------------------------------------------------------------------------------ transfer
+    def transfer_to(self, other: State,
+                    interpolate: Callable[[dolfinx.fem.Function, dolfinx.fem.Function], None]) -> None:
+        """Carry every field and history level to ``other``, a State of the same scene on another mesh
+        (remeshing, issue 13): ``interpolate(target, source)`` moves one Function between the meshes (e.g.
+        dolfinx's non-matching interpolation). The mesh displacement levels are relative to each mesh's
+        reference, so a transfer that re-references the mesh must reset them; that policy, and the
+        choice of interpolation, belong to the remeshing and are not implemented here."""
+        mine, theirs = self.functions(), other.functions()
+        if set(mine) != set(theirs):
+            raise ValueError(f"transfer between different states: {sorted(set(mine) ^ set(theirs))}")
+        for name, f in mine.items():
+            interpolate(theirs[name], f)
+        other.t, other.step_count = self.t, self.step_count

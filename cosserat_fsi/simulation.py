@@ -1,0 +1,166 @@
+"""The one owner of the time loop: a scene on a mesh, advanced step by step.
+
+    sim = Simulation(scene, mesh, cell_tags, facet_tags, comm)
+    sim.run(n_steps, observers=[lambda sim: ...], after_step=[lambda sim: ...])
+
+The runner (app/runner.py), the bench (campaigns/bench.py) and the tests drive this same loop.
+Observers see the solution on the mesh it was solved on (before the mesh moves on); ``after_step``
+callbacks run once the step is complete (field output, checkpoints, progress).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+from mpi4py import MPI
+
+from .scheme.boundary import BoundaryConditions
+from .scheme.histories import Histories
+from .scheme.linear_solver import LinearSolver
+from .scheme.mesh_motion import MeshMotion, PrescribedMotion
+from .scheme.problem import Model, Problem
+from .scheme.state import State
+from .scheme.steady import steady_stepper
+from .scheme.stepper import SCHEMES, Stepper
+from .timers import Timers
+
+Callback = Callable[["Simulation"], None]
+
+
+class Simulation:
+    """Problem + state + scheme of one scene.
+
+    Public surface: ``scene``, ``mesh``, ``cell_tags``, ``facet_tags``, ``comm``, ``exact``, ``model``,
+    ``problem`` (coefficients and residual), ``state`` (fields and levels), ``stepper`` (the scheme),
+    ``motion`` (None on a fixed mesh), ``timers``; ``t``, ``step_count``, ``velocity``, ``pressure``,
+    ``micro_rotation``, ``displacement``, ``locator`` (for probes on the current mesh), ``num_dofs()``,
+    ``acceleration(u)``; ``step``, ``run``, ``checkpoint``, ``restore``.
+    """
+
+    def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD, exact=None,
+                 prescribed_motion: Callable | None = None):
+        """``exact``: optional exact solution (``velocity(x, t)``, with micro-rotation
+        ``micro_rotation(x, t)``, optional sources ``body_force``/``body_couple``): the initial state,
+        the Dirichlet data on every boundary but the outlet and the sources (verification tests).
+        ``prescribed_motion(X, t)``: a displacement of the reference coordinates that the mesh follows
+        instead of the material (ALE verification)."""
+        self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
+        self.cell_tags, self.facet_tags = cell_tags, facet_tags
+        self.timers = Timers()
+        self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact)
+        self.motion = self._motion(prescribed_motion)
+        self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion)
+        self.state.set_initial(self.problem, exact)
+        self.stepper = self._stepper()
+
+    def _stepper(self):
+        """The scheme: characteristics (first order or BDF2), or a steady solver."""
+        scene, comm = self.scene, self.comm
+        boundary = BoundaryConditions(self.problem, comm, self.exact)
+        if scene.time.scheme == "steady":
+            return steady_stepper(self.problem, self.state, boundary, self.motion, self.timers, comm)
+        histories = Histories(scene, self.problem, float(scene.time.dt), comm, moving=self.motion is not None)
+        solver = LinearSolver(scene.solver, comm,
+                              reuse_factorization=self.motion is not None and scene.solver.reuse_factorization)
+        return Stepper(self.problem, self.state, boundary, histories, solver, self.motion, self.timers, comm)
+
+    def _motion(self, prescribed_motion):
+        """The mesh motion (pluggable: harmonic extension of the solid's displacement today)."""
+        if prescribed_motion is not None:
+            return PrescribedMotion(self.mesh, prescribed_motion, self.comm)
+        if self.problem.model.moving_mesh:
+            return MeshMotion(self.mesh, self.cell_tags, self.comm)
+        return None
+
+    # ------------------------------------------------------------------------------- the loop
+    def step(self, observers: Iterable[Callback] = ()) -> None:
+        """One time step; ``observers(sim)`` after the solve, on the mesh it was solved on."""
+        observers = tuple(observers)
+        self.stepper.advance(observe=(lambda: [o(self) for o in observers]) if observers else None)
+
+    def run(self, n_steps: int, observers: Iterable[Callback] = (), after_step: Iterable[Callback] = ()) -> None:
+        """Step until ``step_count == n_steps`` (continuing from a restored state)."""
+        observers, after_step = tuple(observers), tuple(after_step)
+        while self.step_count < n_steps:
+            self.step(observers)
+            for callback in after_step:
+                callback(self)
+
+    def steps_to(self, t_end: float) -> int:
+        """The number of steps of the run to ``t_end`` (a steady solve is one step)."""
+        if self.scene.time.scheme == "steady":
+            return 1
+        return int(round(t_end / self.scene.time.dt))
+
+    def check(self) -> None:
+        """DivergenceError if the run failed without raising at once (a steady Newton that did not
+        converge keeps its last iterate for the outputs)."""
+        self.stepper.check()
+
+    @property
+    def report(self):
+        """The Newton report of a steady solve (None when time stepping)."""
+        return self.stepper.report
+
+    # ------------------------------------------------------------------------- checkpoints
+    def checkpoint(self) -> dict:
+        """This rank's part of the state, independent of the partition (io/checkpoint.py writes it)."""
+        return self.state.checkpoint()
+
+    def restore(self, states: list[dict]) -> None:
+        """Continue from the checkpoints of all ranks of an earlier run of the same scene."""
+        self.state.restore(states, float(abs(self.mesh.geometry.x).max()))  # the reference mesh
+        self.stepper.restored()
+
+    # ------------------------------------------------------------------------------ surface
+    @property
+    def model(self) -> Model:
+        return self.problem.model
+
+    @property
+    def t(self) -> float:
+        return self.state.t
+
+    @property
+    def step_count(self) -> int:
+        return self.state.step_count
+
+    @property
+    def order(self) -> int:
+        return self.state.order
+
+    @property
+    def velocity(self):
+        return self.state.velocity
+
+    @property
+    def pressure(self):
+        return self.state.pressure
+
+    @property
+    def micro_rotation(self):
+        return self.state.micro_rotation
+
+    @property
+    def displacement(self):
+        return self.state.displacement
+
+    @property
+    def locator(self):
+        """The point locator of the current mesh (characteristics.probe)."""
+        return self.stepper.locator
+
+    def acceleration(self, u):
+        """The scheme's material acceleration of ``u`` in the last step (residual forces)."""
+        return self.stepper.acceleration(u)
+
+    @property
+    def dx_inertia(self):
+        return self.stepper.dx_inertia
+
+    def split_solution(self) -> tuple:
+        """(u, p, ω or None) of the last solution (the mixed Function), as UFL expressions."""
+        return self.stepper.split_solution()
+
+    def num_dofs(self) -> dict:
+        return self.problem.num_dofs()
