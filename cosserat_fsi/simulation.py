@@ -10,7 +10,7 @@ callbacks run once the step is complete (field output, checkpoints, progress).
 
 from __future__ import annotations
 
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 from mpi4py import MPI
 

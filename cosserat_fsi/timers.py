@@ -25,5 +25,5 @@ class Timers:
         def __exit__(self, *exc):
             self.timers.add(self.name, time.perf_counter() - self.t0)
 
-    def __call__(self, name: str) -> "Timers._Ctx":
+    def __call__(self, name: str) -> Timers._Ctx:
         return Timers._Ctx(self, name)

@@ -56,6 +56,7 @@ BAD = [
      "geometry.level: 'seed' only for geometry turek_hron"),
     ("flag_on_channel", None, ["geometry.name=channel"], "geometry.flag: only for geometry turek_hron"),
     ("bad_scheme", None, ["time.scheme=euler"], "time.scheme: must be one of characteristics1, characteristics2"),
+    ("steady_without_dt_unsteady", None, ["time.dt=null"], "time.dt: field required (for scheme characteristics1)"),
     ("bad_yaml", "fluid: {rho: 1,\ntime: [\n", [], "config.yaml: line 3: could not parse YAML"),
     ("duplicate_key", BASE + "time: {dt: 1}\n", [], "config.yaml: line 5: could not parse YAML (duplicate key 'time')"),
     ("top_level_list", "- 1\n- 2\n", [], "config.yaml: top level must be a mapping"),

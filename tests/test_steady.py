@@ -101,6 +101,8 @@ def test_verdict_lines_judge_each_quantity():
                              "lift": {"value": 1.12, "reference": 1.119, "error": 0.0009}}}
     lines = verdict_lines(summary)
     assert lines[0] == "benchmark turek_hron_cfd1: FAIL (1/2 within tolerance)"
+    periodic = dict(summary, benchmark={"name": "turek_hron_cfd3"}, signals={"drag": "not periodic yet"})
+    assert "drag.mean (not periodic yet)" in "\n".join(verdict_lines(periodic))
     assert lines[3].split()[0] == "drag" and lines[3].split()[-1] == "FAIL"
     assert lines[4].split()[-1] == "pass"
     assert lines[-2] == "result: drag = 14, lift = 1.2"
@@ -116,3 +118,9 @@ def test_continuation_in_the_convection_reaches_the_full_reynolds_number(repo_ro
     assert proc.returncode == 0, proc.stderr
     assert s["newton"]["converged"] and s["newton"]["stages"] == [1.0, 0.25, 0.5, 1.0]
     assert abs(s["benchmark"]["drag"]["error"] + 0.0033) < 5e-4
+
+
+def test_steady_micropolar_fsi_is_refused_not_silently_classical(repo_root, tmp_path):
+    proc, s, _ = _run(repo_root, tmp_path, "turek_hron_fsi1.yaml", "geometry.level=0", "micropolar.mu_r=0.5")
+    assert proc.returncode == 2 and s is None
+    assert proc.stderr.strip().splitlines()[-1].startswith("error: time.scheme: steady is not available")

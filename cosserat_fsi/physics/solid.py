@@ -42,7 +42,7 @@ def elastic_energy_density(d, mu_s):
     It equals the incompressible μ_s/2 (tr B − 2) when J = det F = 1, and stays ≥ 0 when the discrete
     J is not exactly 1 (tr B ≥ 2J ≥ 2 + 2 ln J).
     """
-    F = ufl.inv(ufl.Identity(2) - ufl.grad(d))
+    F = ufl.inv(ufl.Identity(len(d)) - ufl.grad(d))
     return 0.5 * mu_s * (ufl.tr(F * F.T) - 2 - 2 * ufl.ln(ufl.det(F)))
 
 

@@ -8,7 +8,7 @@ wall value of ω is weak (Problem.residual) and has no Dirichlet condition here.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from mpi4py import MPI

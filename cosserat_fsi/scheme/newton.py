@@ -20,7 +20,6 @@ import numpy as np
 
 from .. import compat
 
-import dolfinx
 import dolfinx.fem.petsc as fem_petsc
 import ufl
 from petsc4py import PETSc

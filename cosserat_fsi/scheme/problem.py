@@ -9,7 +9,7 @@ splits the form; a steady solver passes grad(u) u with a Function and differenti
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -32,7 +32,7 @@ class Model:
     moving_mesh: bool
 
     @classmethod
-    def from_scene(cls, scene) -> "Model":
+    def from_scene(cls, scene) -> Model:
         solid = bool(scene.has_solid)
         return cls(micro_rotation=bool(scene.has_micropolar), solid=solid, moving_mesh=solid)
 

@@ -9,7 +9,7 @@ mesh motion's own ``mesh_displacement``, ``mesh_velocity_P1``, ``solid_displacem
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -149,7 +149,7 @@ class State:
         self.t, self.step_count = float(states[0]["t"]), int(states[0]["step_count"])
 
     # ------------------------------------------------------------------------------ transfer
-    def transfer_to(self, other: "State",
+    def transfer_to(self, other: State,
                     interpolate: Callable[[dolfinx.fem.Function, dolfinx.fem.Function], None]) -> None:
         """Carry every field and history level to ``other``, a State of the same scene on another mesh
         (remeshing, issue 13): ``interpolate(target, source)`` moves one Function between the meshes (e.g.

@@ -18,7 +18,7 @@ from __future__ import annotations
 import logging
 
 from .. import compat
-from ..errors import DivergenceError
+from ..errors import DivergenceError, InputError
 from .characteristics import PointLocator
 from .newton import Newton, NewtonReport
 
@@ -33,6 +33,10 @@ def steady_stepper(problem, state, boundary, motion, timers, comm):
     """The steady solver of a scene's kind (Simulation's stepper for ``time.scheme: steady``)."""
     if problem.model.solid:
         from .steady_solid import SteadySolid
+
+        if problem.scene.has_fluid and problem.model.micro_rotation:
+            raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
+                             "steady solid solve has no micro-rotation); use characteristics1 or characteristics2")
 
         log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
                  "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
@@ -99,9 +103,9 @@ class SteadyStepper:
             observe()
         if not report.converged:
             last = report.history[-1] if report.history else {}
-            self.failure = (f"Newton did not converge ({report.message}; last |F| = "
-                            f"{last.get('residual', float('nan')):.3e}, relative {last.get('relative', float('nan')):.2e}); "
-                            f"the last iterate and the residual history are written")
+            residual, relative = last.get("residual", float("nan")), last.get("relative", float("nan"))
+            self.failure = (f"Newton did not converge ({report.message}; last |F| = {residual:.3e}, "
+                            f"relative {relative:.2e}); the last iterate and the residual history are written")
 
     def check(self) -> None:
         """Raise DivergenceError (exit 3) if the solve failed; called by the runner after the outputs."""
