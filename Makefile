@@ -135,8 +135,11 @@ $(STAMP_LATEST):
 # make run                                   Debian stack, serial
 # make run NP=2                              Debian stack, mpirun -n 2 (OpenMPI)
 # make run STACK=latest NP=2 SCENE=configs/turek_hron_fsi2.yaml
+# `make run` replaces the run of an earlier `make run` in $(OUT) (--overwrite: only once the new one is set
+# up; a folder in use by a running run is still refused). RUN_FLAGS= (empty) keeps an existing run instead.
+RUN_FLAGS ?= --overwrite
 run: $(RUN_SETUP)
-	$(LAUNCH)$(RUN_VENV)/bin/cosserat-fsi run $(SCENE) --out $(OUT)
+	$(LAUNCH)$(RUN_VENV)/bin/cosserat-fsi run $(SCENE) --out $(OUT) $(RUN_FLAGS)
 
 # ------------------------------------------------------------------------------------ tests
 # Every step runs even if an earlier one fails (-k); make exits non-zero if any failed.

@@ -150,10 +150,13 @@ JIT_OPTIONS = {"cffi_extra_compile_args": ["-O2", "-march=native"], "cffi_librar
 
 
 def form(f):
-    """Compile a UFL form (or list of forms)."""
+    """Compile a UFL form (or list of forms), caching in ``cache.jit_cache_dir()``."""
+    from .cache import jit_cache_dir
+
+    options = {**JIT_OPTIONS, "cache_dir": str(jit_cache_dir())}
     if NEW:
-        return dolfinx.fem.form(f, jit_options=JIT_OPTIONS)
-    return dolfinx.fem.form(f, jit_params=JIT_OPTIONS)
+        return dolfinx.fem.form(f, jit_options=options)
+    return dolfinx.fem.form(f, jit_params=options)
 
 
 def create_vector(L_form, V):

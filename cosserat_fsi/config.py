@@ -22,6 +22,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
 
 from cosserat_fsi.errors import InputError
+from cosserat_fsi.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load  # noqa: F401
 from cosserat_fsi.geometry import GEOMETRIES, MODELS, Geometry, GeometryBase
 
 GEOMETRY_OF_BENCHMARK = {
@@ -49,47 +50,22 @@ Benchmark = Literal[
     "seed_fsi3",
     "micropolar_poiseuille", "micropolar_taylor_green",
 ]
+MAX_STEPS = 100_000_000
+"""Most time steps a scene may ask for (t_end / dt): beyond it a run would not end in a lifetime."""
+MAX_COUNT = 1_000_000_000
+"""Upper bound of every step-count setting (output.every, output.checkpoint_every, ...)."""
 
 
 # --------------------------------------------------------------------------------------------- YAML
-
-class YamlLoader(yaml.SafeLoader):
-    """SafeLoader that reads ``1e-3`` as a float (YAML 1.1 wants ``1.0e-3``) and rejects duplicate keys."""
-
-    def construct_mapping(self, node, deep=False):
-        """Build a mapping, failing on a key that appears twice."""
-        seen = set()
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=True)
-            if key in seen:
-                raise yaml.constructor.ConstructorError(
-                    None, None, f"duplicate key {key!r}", key_node.start_mark)
-            seen.add(key)
-        return super().construct_mapping(node, deep)
-
-
-YamlLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                   |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-                   |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-                   |[-+]?\.(?:inf|Inf|INF)
-                   |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."),
-)
-
-
-def yaml_load(text: str) -> Any:
-    """Parse YAML text safely (no tags, no code), with ``1e-3`` read as a float."""
-    return yaml.load(text, Loader=YamlLoader)  # a SafeLoader: no tags, no code
-
+# yaml_load / YamlLoader live in safe_yaml (bounded, merge keys, one-line errors); re-exported here.
 
 # ------------------------------------------------------------------------------------------- schema
 
 class _Section(BaseModel):
-    """Base of every section: unknown keys and loose types (a string for a number) are errors."""
+    """Base of every section: unknown keys, loose types (a string for a number) and non-finite numbers
+    (``.inf``, ``.nan``, ``1e999``) are errors: one setting for every float of every section."""
 
-    model_config = ConfigDict(extra="forbid", strict=True)
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
 
 PositiveFloat = Annotated[float, Field(gt=0)]
@@ -212,16 +188,17 @@ class Solver(_Section):
     mumps_ordering: Literal["metis", "pord", "amd", "auto"] = "auto"
     reuse_factorization: bool = True
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
-    max_krylov_iterations: int = Field(default=12, ge=1)
+    max_krylov_iterations: int = Field(default=12, ge=1, le=10_000)
 
 
 class Output(_Section):
     """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval."""
 
-    every: int = Field(default=10, ge=1)
+    every: int = Field(default=10, ge=1, le=MAX_COUNT)
     fields: bool = True
     progress: bool = True
-    checkpoint_every: int = Field(default=1000, ge=0)  # steps between checkpoints; 0: only on SIGTERM/SIGINT
+    # steps between checkpoints; 0: only on SIGTERM/SIGINT
+    checkpoint_every: int = Field(default=1000, ge=0, le=MAX_COUNT)
 
 
 class Scene(_Section):
@@ -241,8 +218,8 @@ class Scene(_Section):
     @field_validator("name")
     @classmethod
     def _name(cls, value):
-        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", value):
-            raise ValueError(f"must use only letters, digits, '_', '-', '.' (got {value!r})")
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", value):
+            raise ValueError(f"must use only letters, digits, '_', '-', '.' (1 to 100 of them; got {_short(value)})")
         return value
 
     @model_validator(mode="after")
@@ -255,6 +232,9 @@ class Scene(_Section):
                 raise ValueError(f"time.{key}: field required (for scheme {time.scheme})")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
+        if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
+            raise ValueError(f"time.dt: time.t_end / time.dt must be at most {MAX_STEPS:,} steps "
+                             f"(got {time.t_end!r} / {time.dt!r})")
         if geo.FLUID and self.fluid is None:
             raise ValueError(f"fluid: missing section (required for geometry {geo.name})")
         if not geo.FLUID and self.fluid is not None:
@@ -374,7 +354,9 @@ def _describe(err: dict) -> str:
         return _not_for_geometry(str(loc[-1]), member)
     if kind == "value_error":
         message = str(ctx["error"])
-        return f"{_dotted(loc)}: {message}" if loc else message
+        if not loc or message.startswith((_dotted(loc) + ".", _dotted(loc) + ":")):  # already names its key
+            return message
+        return f"{_dotted(loc)}: {message}"
     if kind == "extra_forbidden":
         return _unknown_key([str(p) for p in loc])
     if kind == "missing":
@@ -384,6 +366,8 @@ def _describe(err: dict) -> str:
         "greater_than": lambda: f"must be > {ctx['gt']:g}",
         "greater_than_equal": lambda: f"must be >= {ctx['ge']:g}",
         "less_than": lambda: f"must be < {ctx['lt']:g}",
+        "less_than_equal": lambda: f"must be <= {ctx['le']:g}",
+        "finite_number": lambda: "must be a finite number",
         "literal_error": lambda: "must be one of " + ", ".join(re.findall(r"'([^']*)'", ctx["expected"])),
         "float_type": lambda: "must be a number",
         "int_type": lambda: "must be an integer",
@@ -397,7 +381,16 @@ def _describe(err: dict) -> str:
         "model_attributes_type": lambda: "must be a mapping of keys",
     }
     problem = problems[kind]() if kind in problems else err["msg"].lower()
-    return f"{_dotted(loc)}: {problem} (got {got!r})"
+    return f"{_dotted(loc)}: {problem} (got {_short(got)})"
+
+
+def _short(value: Any) -> str:
+    """A bounded repr (an aliased YAML structure can be huge)."""
+    import reprlib
+
+    short = reprlib.Repr()
+    short.maxstring, short.maxother, short.maxlong = 40, 40, 40
+    return short.repr(value)
 
 
 def _apply_override(data: dict, item: str) -> None:
@@ -414,7 +407,8 @@ def _apply_override(data: dict, item: str) -> None:
     try:
         value = yaml_load(text)
     except yaml.YAMLError as exc:
-        raise InputError(f"{key}: could not parse value {text!r} as YAML") from exc
+        problem = describe_yaml_error(exc).split("could not parse YAML ", 1)[-1]
+        raise InputError(f"{key}: could not parse value {_short(text)} as YAML {problem}") from None
     node = data
     for i, part in enumerate(parts[:-1]):
         if node.get(part) is None:
@@ -437,6 +431,8 @@ def validate_scene(data: Any, source: str = "config") -> Scene:
     if not isinstance(data, dict):
         got = "empty file" if data is None else type(data).__name__
         raise InputError(f"{source}: top level must be a mapping of sections (got {got})")
+    # top-level keys "x-..." are ignored: a place for YAML anchors (``x-water: &water {rho: 1000}``)
+    data = {k: v for k, v in data.items() if not (isinstance(k, str) and k.startswith("x-"))}
     try:
         return Scene.model_validate(data)
     except ValidationError as exc:
@@ -458,19 +454,11 @@ def validate_geometry(data: Any) -> GeometryBase:
 def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
     """Read, override and validate a scene file. ``name`` defaults to the file stem."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: could not read ({exc.__class__.__name__})") from None
+    text = read_text_file(path, "scene file")
     try:
         data = yaml_load(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f"line {mark.line + 1}: " if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(f"{path}: {line}could not parse YAML ({problem})") from None
+        raise InputError(f"{path}: {describe_yaml_error(exc)}") from None
     if isinstance(data, dict):
         data.setdefault("name", path.stem)
         for item in overrides:

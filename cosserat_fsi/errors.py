@@ -1,4 +1,11 @@
-"""Exceptions that the CLI turns into exit codes (2: bad input, 3: diverged, 128 + signal: stopped)."""
+"""Exceptions that the CLI turns into exit codes.
+
+    2    bad input (InputError), including a folder in use, a damaged file read, a disk that fills
+         (OutputError): one line ``error: ...``
+    3    the run diverged (DivergenceError): ``diverged: ...``, output kept
+    1    anything else, a bug: ``internal error: <type>: <message> (traceback in <file>)``
+    128 + signal   SIGINT (130) / SIGTERM (143): ``interrupted: ...``
+"""
 
 
 class InputError(Exception):
@@ -10,6 +17,11 @@ class InputError(Exception):
     exit_code = 2
 
 
+class OutputError(InputError):
+    """An output file could not be written (disk full, read-only, removed folder). Exit code 2; the files
+    written before are kept and summary.json (if it could be written) says ``failed``."""
+
+
 class DivergenceError(Exception):
     """The run diverged (NaN, inverted element). The CLI keeps the output and exits with code 3."""
 
@@ -17,8 +29,27 @@ class DivergenceError(Exception):
 
 
 class Interrupted(Exception):
-    """SIGTERM/SIGINT: a checkpoint was written and the files closed. Exit code 128 + the signal number."""
+    """SIGTERM/SIGINT. Exit code 128 + the signal number. In the time loop a checkpoint is written first."""
 
     def __init__(self, message: str, signum: int):
         super().__init__(message)
+        self.signum = signum
         self.exit_code = 128 + signum
+
+
+class InternalError(Exception):
+    """An unexpected exception of another rank, re-raised on this one (see ``parallel``): exit code 1."""
+
+    exit_code = 1
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+
+
+def exit_code_of(exc: BaseException) -> int:
+    """The CLI's exit code for ``exc``."""
+    if isinstance(exc, KeyboardInterrupt):
+        return 130
+    return getattr(exc, "exit_code", 1) if isinstance(exc, (InputError, DivergenceError, Interrupted,
+                                                            InternalError)) else 1

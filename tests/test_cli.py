@@ -90,8 +90,10 @@ def fake_runner(monkeypatch):
     module.calls = []
     module.error = None
 
-    def run_scene(scene, out_dir, comm, progress, restart=False):
+    def run_scene(scene, out_dir, comm, progress, restart=False, commit=None):
         module.calls.append((scene, out_dir, progress))
+        if commit is not None:
+            commit()
         logging.getLogger("cosserat_fsi.app.runner").info("stub step")
         if module.error:
             raise module.error

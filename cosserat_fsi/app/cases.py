@@ -50,8 +50,9 @@ def status(case: Case) -> str:
     if summary.exists():
         try:
             done = json.loads(summary.read_text())
-        except ValueError:
+        except (OSError, ValueError):  # damaged: run it again (--overwrite below)
             done = {}
+        done = done if isinstance(done, dict) else {}
         if done.get("status") == "diverged":
             return "finished"
         if done.get("status") == "completed":
@@ -80,7 +81,8 @@ def run_case(case: Case, python: str | None = None, cwd: Path | None = None) -> 
     if state == "finished":
         return case.out
     case.out.mkdir(parents=True, exist_ok=True)
-    where = ["--restart", str(case.out)] if state == "resume" else ["--out", str(case.out)]
+    # an earlier attempt that failed or was cut short is replaced (--overwrite: once the new run is set up)
+    where = ["--restart", str(case.out)] if state == "resume" else ["--out", str(case.out), "--overwrite"]
     cmd = [python or sys.executable, "-m", "cosserat_fsi", "run", str(case.config), *where, "--no-progress",
            *case.set_args()]
     if case.ranks > 1:

@@ -10,35 +10,26 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import logging
-import os
 import platform
 import re
 import sys
 from pathlib import Path
 
 from cosserat_fsi import __version__
+from cosserat_fsi.app.failure import (Context, RunLog, check_utf8_arguments, install_signal_handlers, report,
+                                      robust_streams, say, write_traceback)
+from cosserat_fsi.cache import check_caches
 from cosserat_fsi.config import load_scene
-from cosserat_fsi.errors import DivergenceError, InputError, Interrupted
+from cosserat_fsi.errors import DivergenceError, InputError
 
 log = logging.getLogger("cosserat_fsi")
 
 
-def _rank() -> int:
-    """MPI rank, without importing mpi4py: from mpi4py if already loaded, else the launcher's environment."""
-    mpi = sys.modules.get("mpi4py.MPI")
-    if mpi is not None:
-        return mpi.COMM_WORLD.rank
-    for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-        if os.environ.get(var, "").isdigit():
-            return int(os.environ[var])
-    return 0
-
-
 def _say(message: str, stream=None) -> None:
     """Print on rank 0 only."""
-    if _rank() == 0:
-        print(message, file=stream or sys.stdout, flush=True)
+    say(message, stream)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -52,67 +43,69 @@ class _Parser(argparse.ArgumentParser):
 
 def setup_logging(out_dir: Path, comm) -> logging.Logger:
     """Log the ``cosserat_fsi`` logger at INFO to ``<out_dir>/run.log`` and stderr, on rank 0 only."""
-    for handler in list(log.handlers):
-        log.removeHandler(handler)
-        handler.close()
-    log.propagate = False
-    if comm.rank != 0:
-        log.addHandler(logging.NullHandler())
-        return log
-    log.setLevel(logging.INFO)
-    file_handler = logging.FileHandler(Path(out_dir) / "run.log", encoding="utf-8")
-    file_handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
-    stream_handler = logging.StreamHandler(sys.stderr)
-    stream_handler.setFormatter(logging.Formatter("%(message)s"))
-    log.addHandler(file_handler)
-    log.addHandler(stream_handler)
+    run_log = RunLog(comm)
+    if comm.rank == 0:
+        run_log.commit(Path(out_dir), append=True)
     return log
 
 
-def _check_out_dir(out: Path) -> None:
-    """Create ``out`` if needed and check a file can be written there (InputError naming --out if not)."""
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".write-test-{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise InputError(f"--out: cannot write to {out} ({exc.strerror or exc})") from None
-
-
-def _cmd_run(args) -> int:
-    scene = load_scene(args.config, args.set)
-    out = Path(args.out) if args.out else Path("runs") / scene.name
-    if args.restart:
+def _validate_run(args):
+    """Everything about a run that can be checked without touching a file: (scene, out, mode)."""
+    if args.restart is not None and not args.restart.strip():
+        raise InputError("--restart: needs the folder of the run to continue (got an empty path)")
+    if args.out is not None and not args.out.strip():
+        raise InputError("--out: needs a folder (got an empty path)")
+    if args.restart is not None and args.overwrite:
+        raise InputError("--overwrite: not with --restart (a restart continues the run in its folder)")
+    scene = load_scene(args.config, args.set)  # the geometry's size is checked there (geometry/_model.py)
+    check_caches()
+    out, mode = (Path(args.out) if args.out else Path("runs") / scene.name), "overwrite" if args.overwrite else "new"
+    if args.restart is not None:
         restart = Path(args.restart)
         if args.out and Path(args.out).resolve() != restart.resolve():
             raise InputError("--out: a restart continues in its own folder; leave --out out or give the same one")
-        if not restart.is_dir():
-            raise InputError(f"--restart: {restart} is not a folder")
-        out = restart
-    _check_out_dir(out)
-    from cosserat_fsi.app.runner import run_scene  # heavy: dolfinx, PETSc, MPI
+        out, mode = restart, "restart"
+    return scene, out, mode
+
+
+def _cmd_run(args, context) -> int:
     from mpi4py import MPI
 
-    comm = MPI.COMM_WORLD
-    if args.restart:  # check the checkpoint before anything in the folder is touched (run.log included)
-        from cosserat_fsi.io.checkpoint import read_checkpoint, scene_fingerprint
+    from cosserat_fsi.io.runfolder import RunFolder
+    from cosserat_fsi.parallel import agree, on_root
 
-        read_checkpoint(out, comm, scene_fingerprint(scene))
-        for name in ("timeseries.csv",) + (("fields.xdmf", "fields.h5") if scene.output.fields else ()):
-            if not (out / name).is_file():
-                raise InputError(f"--restart: {out / name} is missing (the checkpoint cannot be continued)")
-    setup_logging(out, comm)
-    log.info("cosserat-fsi %s: scene %s -> %s (%d rank%s)",
-             __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
+    comm = MPI.COMM_WORLD
+    scene, out, mode = agree(comm, _validate_run, args)
+    folder = RunFolder(out) if comm.rank == 0 else None
+    run_log = RunLog(comm)
     try:
-        summary = run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
-                            restart=bool(args.restart))
-    except DivergenceError:
-        _say_how_it_did(out, comm)
-        raise
-    log.info("done: %s", out)
-    _say_how_it_did(out, comm, summary)
+        on_root(comm, folder.acquire if folder else None, mode, step="lock")
+        log.info("cosserat-fsi %s: scene %s -> %s (%d rank%s)",
+                 __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
+        from cosserat_fsi.app.runner import run_scene  # heavy: dolfinx, PETSc
+
+        try:
+            import gmsh  # noqa: F401  (gmsh 4.8 resets SIGINT/SIGTERM when imported: import it now...)
+        except ImportError:
+            pass
+        install_signal_handlers()  # ...and put ours back
+
+        def commit():  # rank 0, once everything is checked and set up: from here on the folder is the run's
+            folder.commit_overwrite()
+            context.traceback_file = run_log.commit(out, append=mode == "restart")
+
+        try:
+            summary = run_scene(scene, out, comm, progress=scene.output.progress and not args.no_progress,
+                                restart=mode == "restart", commit=commit)
+        except DivergenceError:
+            _say_how_it_did(out, comm)
+            raise
+        _say_how_it_did(out, comm, summary)
+        log.info("done: %s", out)
+    finally:
+        if folder is not None:
+            folder.release()
+        run_log.close()
     return 0
 
 
@@ -127,11 +120,14 @@ def _say_how_it_did(out: Path, comm, summary: dict | None = None):
             summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
         except (OSError, ValueError):
             return
-    for line in verdict_lines(summary):
-        log.info("%s", line)
+    try:
+        for line in verdict_lines(summary):
+            log.info("%s", line)
+    except Exception as exc:  # noqa: BLE001 (a report, not the run: never turn a finished run into a failure)
+        log.info("(no verdict: %s: %s)", type(exc).__name__, exc)
 
 
-def _cmd_mesh(args) -> int:
+def _cmd_mesh(args, context=None) -> int:
     scene = load_scene(args.config, args.set)
     from cosserat_fsi.geometry import build_msh
 
@@ -150,7 +146,7 @@ def _cmd_mesh(args) -> int:
     return 0
 
 
-def _cmd_plot(args) -> int:
+def _cmd_plot(args, context=None) -> int:
     from cosserat_fsi.app.plots import plot_run
 
     for path in plot_run(args.run_dir, args.out, args.time):
@@ -158,7 +154,7 @@ def _cmd_plot(args) -> int:
     return 0
 
 
-def _cmd_study(args) -> int:
+def _cmd_study(args, context=None) -> int:
     from cosserat_fsi.app.study import main_study
 
     _say(str(main_study(args.study, args.out, args.jobs, args.report_only)))
@@ -206,11 +202,22 @@ def _loaded_blas() -> str:
     return ", ".join(libs) or "-"
 
 
-def _cmd_info(args) -> int:
+def _cmd_info(args, context=None) -> int:
     rows = _versions()
     width = max(len(name) for name, _ in rows)
     _say("\n".join(f"{name:<{width}}  {value}" for name, value in rows))
     return 0
+
+
+def _finite_float(text: str) -> float:
+    """argparse type: a finite number."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(text)
+    return value
+
+
+_finite_float.__name__ = "finite number"  # argparse names the type in its message
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -227,9 +234,13 @@ def _parser() -> argparse.ArgumentParser:
     scene_args(run)
     run.add_argument("--out", help="output directory (default: runs/<scene name>)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the run already in --out (removed only once the new one is set up)")
     run.add_argument("--restart", metavar="DIR",
-                     help="continue the run in DIR from its checkpoint (same scene but for time.t_end and "
-                          "output, same number of ranks)")
+                     help="continue the run in DIR from its last checkpoint: same scene but for time.t_end "
+                          "(not before the checkpoint) and output; any number of ranks (the checkpoint is "
+                          "keyed by coordinates, not by partition). Everything is checked before a byte "
+                          "of DIR changes")
     run.set_defaults(func=_cmd_run)
     mesh = sub.add_parser("mesh", help="build (or find cached) the scene's mesh and print its size")
     scene_args(mesh)
@@ -237,7 +248,7 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="PNGs of a run: time series (with the reference band) and snapshots")
     plot.add_argument("run_dir", help="output folder of `cosserat-fsi run`")
     plot.add_argument("--out", help="folder for the PNGs (default: RUN_DIR/plots)")
-    plot.add_argument("--time", action="append", type=float, metavar="T",
+    plot.add_argument("--time", action="append", type=_finite_float, metavar="T",
                       help="snapshot at the output step nearest to T (repeatable; default: the last step)")
     plot.set_defaults(func=_cmd_plot)
     study = sub.add_parser("study", help="run a ladder of runs (mesh × δt × options) and report error, time, memory")
@@ -252,19 +263,24 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``cosserat-fsi`` console script; returns the exit code."""
-    args = _parser().parse_args(argv)
+    """Entry point of the ``cosserat-fsi`` console script; returns the exit code (app/failure.py)."""
+    robust_streams()
+    install_signal_handlers()
+    context = Context()
+    from cosserat_fsi import parallel
+
+    parallel.traceback_sink = lambda exc: write_traceback(exc, context)
     try:
-        return args.func(args)
-    except InputError as exc:
-        _say("error: " + " ".join(str(exc).split()), sys.stderr)
-        return InputError.exit_code
-    except DivergenceError as exc:
-        _say("diverged: " + " ".join(str(exc).split()), sys.stderr)
-        return DivergenceError.exit_code
-    except Interrupted as exc:
-        _say("interrupted: " + " ".join(str(exc).split()), sys.stderr)
-        return exc.exit_code
+        argv = sys.argv[1:] if argv is None else list(argv)
+        check_utf8_arguments(argv)
+        args = _parser().parse_args(argv)
+        if args.command == "mesh":
+            check_caches()
+        return args.func(args, context)
+    except SystemExit as exc:  # argparse: --help, --version, usage errors (already printed)
+        return exc.code if isinstance(exc.code, int) else 0
+    except BaseException as exc:  # noqa: BLE001 (every end is one line and an exit code)
+        return report(exc, context)
 
 
 if __name__ == "__main__":

@@ -9,13 +9,28 @@ count's output (the files are global) and needs no display.
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from ..config import GEOMETRY_OF_BENCHMARK
 from ..errors import InputError
+
+
+def _save(write, path: Path) -> None:
+    """Write a picture through a temporary name, renamed when complete."""
+    import os
+
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.png")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise InputError(f"--out: cannot write {path} ({exc.strerror or exc})") from None
+    finally:
+        if tmp.exists():
+            tmp.unlink()
 
 GROUPS = {  # file stem -> (columns, y label)
     "tip": (("ux_A", "uy_A"), "displacement of A (m)"),
@@ -29,36 +44,62 @@ class Fields:
     """Read-only view of a run's fields.h5: output times, deformed mesh and vertex values of a step."""
 
     def __init__(self, run_dir: Path):
-        import h5py
+        """Open and check the pair (InputError naming the file if it is damaged, foreign or missing); a
+        run still writing is read up to the last step its .xdmf lists (flushed, see io/xdmf.py)."""
+        from ..io.fields_check import open_h5, step_names, xdmf_times
 
-        self.h5 = h5py.File(Path(run_dir) / "fields.h5", "r")
-        xdmf = (Path(run_dir) / "fields.xdmf").read_text(encoding="utf-8")
-        self.times = np.array([float(t) for t in re.findall(r'<Time Value="([^"]+)"', xdmf)])
-        self.steps = sorted(self.h5["mesh/geometry"].keys())[: len(self.times)]
-        self.triangles = self.h5["mesh/topology"][:, :3]
+        self.path = Path(run_dir) / "fields.h5"
+        self.times = xdmf_times(Path(run_dir) / "fields.xdmf")
+        self.h5 = open_h5(self.path)
+        self.steps = step_names(self.h5, len(self.times), self.path)
+        try:
+            self.triangles = self.h5["mesh/topology"][:, :3]
+            n = self.h5[f"mesh/geometry/{self.steps[0]}"].shape[0] if self.steps else 0
+            ok = not self.steps or (self.triangles.min() >= 0 and self.triangles.max() < n)
+        except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ValueError)
+            ok = False
+        if not ok:
+            raise InputError(f"{self.path}: the mesh is damaged (cells name vertices that do not exist)")
 
     def nearest(self, t: float) -> int:
         return int(np.argmin(np.abs(self.times - t)))
 
+    def _read(self, key: str, rows: int | None = None) -> np.ndarray | None:
+        """Dataset ``key`` (None if absent); InputError naming the file if it cannot be read or has not
+        ``rows`` finite rows."""
+        try:
+            if key not in self.h5:
+                return None
+            data = np.asarray(self.h5[key][()], dtype=float)
+        except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, TypeError on a damaged file)
+            raise InputError(f"{self.path}: {key} cannot be read (damaged, or being written?)") from None
+        if data.ndim == 0 or (rows is not None and data.shape[0] != rows):
+            raise InputError(f"{self.path}: {key} has the wrong shape {data.shape} (damaged file)")
+        return data
+
     def geometry(self, i: int) -> np.ndarray:
-        return self.h5[f"mesh/geometry/{self.steps[i]}"][:, :2]
+        data = self._read(f"mesh/geometry/{self.steps[i]}")
+        if data.ndim != 2 or not np.isfinite(data).all():
+            raise InputError(f"{self.path}: mesh/geometry/{self.steps[i]} is damaged")
+        return data[:, :2]
 
     def point(self, name: str, i: int) -> np.ndarray | None:
-        key = f"point/{name}/{self.steps[i]}"
-        return self.h5[key][:] if key in self.h5 else None
+        return self._read(f"point/{name}/{self.steps[i]}", len(self.geometry(i)))
 
     def solid_triangles(self, i: int) -> np.ndarray:
-        key = f"cell/subdomain/{self.steps[i]}"
-        if key not in self.h5:
+        data = self._read(f"cell/subdomain/{self.steps[i]}", len(self.triangles))
+        if data is None:
             return np.zeros(0, dtype=int)
-        return np.where(self.h5[key][:].ravel() == 2)[0]
+        return np.where(data.ravel() == 2)[0]
 
 
 def _reference(run_dir: Path) -> dict:
-    try:
-        summary = json.loads((run_dir / "summary.json").read_text())
+    try:  # no reference band when summary.json is missing, in progress or damaged
+        summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
         name = summary.get("benchmark", {}).get("name")
-    except (OSError, ValueError):
+    except (OSError, ValueError, AttributeError):
+        return {}
+    if name not in GEOMETRY_OF_BENCHMARK:
         return {}
     if not name:
         return {}
@@ -100,7 +141,7 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
         fig.suptitle(f"{run_dir.name}: {ylabel}")
         fig.tight_layout()
         path = out / f"{stem}.png"
-        fig.savefig(path, dpi=110)
+        _save(lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"), path)
         plt.close(fig)
         made.append(path)
     return made
@@ -110,10 +151,10 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
     """pyvista off-screen pictures of |u|, p (and ω) at the output steps nearest to ``times``."""
     if not (run_dir / "fields.h5").exists():
         return []
+    fields = Fields(run_dir)
     import pyvista as pv
 
     pv.OFF_SCREEN = True
-    fields = Fields(run_dir)
     if len(fields.times) == 0:
         return []
     steps = sorted({fields.nearest(t) for t in times}) if times else [len(fields.times) - 1]
@@ -123,7 +164,10 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
         x[:, :2] = fields.geometry(i)
         cells = np.hstack([np.full((len(fields.triangles), 1), 3), fields.triangles]).ravel()
         grid = pv.UnstructuredGrid(cells, np.full(len(fields.triangles), pv.CellType.TRIANGLE), x)
-        panels = [("speed (m/s)", np.linalg.norm(fields.point("velocity", i)[:, :2], axis=1), "viridis")]
+        velocity = fields.point("velocity", i)
+        if velocity is None or velocity.ndim != 2:
+            raise InputError(f"{fields.path}: point/velocity/{fields.steps[i]} is missing (damaged file)")
+        panels = [("speed (m/s)", np.linalg.norm(velocity[:, :2], axis=1), "viridis")]
         p = fields.point("pressure", i)
         if p is not None:
             panels.append(("p (Pa)", p.ravel(), "coolwarm"))
@@ -148,7 +192,7 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
             plotter.view_xy()
             plotter.camera.zoom(2.3)
         path = out / f"snapshot_t{fields.times[i]:.4f}.png"
-        plotter.screenshot(str(path))
+        _save(lambda tmp, plotter=plotter: plotter.screenshot(str(tmp)), path)
         plotter.close()
         made.append(path)
     return made
@@ -157,8 +201,13 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
 def plot_run(run_dir: str | Path, out: str | Path | None = None, times: Sequence[float] | None = None) -> list[Path]:
     """Write every picture of ``run_dir`` into ``out`` (default RUN_DIR/plots); returns their paths."""
     run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise InputError(f"RUN_DIR: {run_dir} is not a folder")
     if not (run_dir / "timeseries.csv").exists():
         raise InputError(f"RUN_DIR: {run_dir} has no timeseries.csv (not a cosserat-fsi run folder?)")
+    if (run_dir / "fields.h5").exists() != (run_dir / "fields.xdmf").exists():
+        missing = "fields.xdmf" if (run_dir / "fields.h5").exists() else "fields.h5"
+        raise InputError(f"{run_dir / missing} is missing (fields.h5 and fields.xdmf go together)")
     out = Path(out) if out else run_dir / "plots"
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -20,11 +20,13 @@ from mpi4py import MPI
 from .. import __version__, compat
 from ..analysis import relative_error
 from ..config import dump_resolved
-from ..errors import DivergenceError, Interrupted
+from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
-from ..io.checkpoint import read_checkpoint, scene_fingerprint, write_checkpoint
+from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
+from ..io.runfolder import atomic_write_text
+from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
@@ -38,34 +40,51 @@ PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3
 def load_mesh(scene, comm):
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
-    path = build_msh(geo) if comm.rank == 0 else None
-    path = comm.bcast(path, root=0)
+    path = on_root(comm, build_msh, geo, step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
     return mesh, cell_tags, facet_tags, path
 
 
-def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False) -> dict:
+def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False,
+              commit=None) -> dict:
     """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json).
 
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
-    output, same rank count): the time series and fields after the checkpoint are dropped and rewritten.
-    A checkpoint is written every ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then
-    stop the run (:class:`Interrupted`).
+    output): the time series and fields after the checkpoint are dropped and rewritten; field steps
+    before it are kept even if ``output.fields`` is now off. A checkpoint is written every
+    ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then stop the run (:class:`Interrupted`).
+
+    Order (docs/reliability.md): read and check the checkpoint and every file of the folder, build the
+    mesh and the simulation, and only then ``commit()`` (rank 0: the CLI removes an overwritten run and
+    starts run.log) and write. A failure before the commit leaves the folder as it was; after it,
+    summary.json says ``completed``, ``diverged``, ``interrupted`` or ``failed``. Every rank-0-only step
+    shares its outcome with the other ranks (``parallel``).
     """
     out_dir = Path(out_dir)
     wall0 = time.perf_counter()
+    handlers = _signal_handlers()
     fingerprint = scene_fingerprint(scene)
     meta = state = None
     if restart:
-        meta, state = read_checkpoint(out_dir, comm, fingerprint)
-    if comm.rank == 0:
-        (out_dir / "config.yaml").write_text(dump_resolved(scene), encoding="utf-8")
+        meta, state = agree(comm, read_checkpoint, out_dir, comm, fingerprint)
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
+    _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     n_vertices = mesh.topology.index_map(0).size_global
     sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     observables = Observables(sim)  # on the reference mesh (point A is found there)
+    _signal_handlers(handlers)
     if restart:
-        sim.restore(state)
+        agree(comm, sim.restore, state)
+        on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
+                scene.output.fields)
+
+    def start():  # rank 0: from here on the folder is this run's
+        if commit is not None:
+            commit()
+        atomic_write_text(out_dir / "config.yaml", dump_resolved(scene))
+
+    on_root(comm, start, step="commit")
+    if restart:
         log.info("restart from the checkpoint of step %d (t = %.6g)", sim.step_count, sim.t)
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
              mesh.topology.index_map(mesh.topology.dim).size_global)
@@ -76,15 +95,8 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
     steady = scene.time.scheme == "steady"
     n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
-    series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
-                              keep_rows=meta["rows"] if restart else None)
-    fields = None
-    if scene.output.fields:
-        fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
-                                keep_steps=meta.get("field_steps", 0) if restart else None)
-    bar = _progress_bar(n_steps, progress and comm.rank == 0)
-    if bar is not None:
-        bar.update(sim.step_count)
+    series = fields = bar = stop = None
+    earlier_field_steps = meta["field_steps"] if restart else 0
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
 
@@ -92,9 +104,10 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         with sim.timers("checkpoint"):
             write_checkpoint(out_dir, sim, comm, {
                 "fingerprint": fingerprint, "rows": sim.step_count,
-                "field_steps": fields.num_steps if fields is not None else 0})
+                "field_steps": fields.num_steps if fields is not None else earlier_field_steps})
 
     def observe(sim):  # after the solve, on the mesh the step was solved on
+        failpoint("observe")  # the fault suite's fault inside a collective step (MPI_Abort path)
         with sim.timers("observables"):
             series.write(sim.t, observables.evaluate())
 
@@ -106,7 +119,7 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
-        signum = comm.allreduce(stop.signum, op=MPI.MAX)
+        signum = _step_end(comm, stop, series)
         if signum:
             checkpoint()
             raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
@@ -115,26 +128,87 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
             checkpoint()
 
     try:
+        series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
+                                  keep_rows=meta["rows"] if restart else None)
+        if scene.output.fields:
+            fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
+                                    keep_steps=earlier_field_steps if restart and earlier_field_steps else None)
+        bar = _progress_bar(n_steps, progress and comm.rank == 0)
+        if bar is not None:
+            bar.update(sim.step_count)
         with _StopSignals() as stop:
-            if fields is not None and not restart and not steady:
+            if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, sim)
             sim.run(n_steps, observers=[observe], after_step=[after_step])
             sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
-    except DivergenceError as exc:
-        status, message = "diverged", str(exc)
-        raise
-    except Interrupted as exc:
-        status, message = "interrupted", str(exc)
+        series.close()
+        share(comm, series.error)
+    except BaseException as exc:
+        if comm.size > 1 and not (is_shared(exc) or isinstance(exc, DivergenceError)):
+            status = "local"
+            raise  # only this rank knows: no collective summary; the CLI ends every rank (MPI_Abort)
+        status, message = _status_of(exc)
         raise
     finally:
         if bar is not None:
             bar.close()
-        series.close()
+        if series is not None:
+            series.close()
         if fields is not None:
             fields.close()
-        summary = _summary(scene, sim, out_dir, n_vertices, setup_time, time.perf_counter() - wall0,
-                           status, message, comm)
+        if status != "local":
+            summary = _write_summary(scene, sim, out_dir, n_vertices, setup_time,
+                                     time.perf_counter() - wall0, status, message, comm)
     return summary
+
+
+def _status_of(exc: BaseException) -> tuple[str, str]:
+    """summary.json's (status, message) for a run that ended with ``exc``."""
+    if isinstance(exc, DivergenceError):
+        return "diverged", str(exc)
+    if isinstance(exc, (Interrupted, KeyboardInterrupt)):
+        return "interrupted", str(exc) or "Ctrl-C (SIGINT)"
+    if isinstance(exc, InternalError):
+        return "failed", f"{exc.kind}: {exc}"
+    return "failed", f"{type(exc).__name__}: {exc}"
+
+
+def _step_end(comm, stop, series) -> int:
+    """End of a step, on every rank: a failed row write (disk full) is raised everywhere; else the largest
+    signal number any rank received (0: none)."""
+    error = series.error
+    if comm.size > 1:
+        signum, failed = comm.allreduce((stop.signum, error is not None), op=MPI.MAX)
+    else:
+        signum, failed = stop.signum, error is not None
+    if failed:
+        share(comm, error)
+    return signum
+
+
+def _write_summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict | None:
+    """summary.json, written whatever ended the run; its own failure does not hide the run's."""
+    import sys
+
+    running = sys.exc_info()[1]
+    try:
+        return _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm)
+    except BaseException as exc:
+        if running is None:
+            raise
+        log.error("summary.json not written: %s", exc)
+        return None
+
+
+def _signal_handlers(restore: dict | None = None) -> dict:
+    """The Python handlers of SIGINT and SIGTERM; with ``restore``, install those again (which also puts
+    Python's C-level handler back where a library replaced it). Main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    for sig, handler in (restore or {}).items():
+        if handler is not None:
+            signal.signal(sig, handler)
+    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
 class _StopSignals:
@@ -191,9 +265,12 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB (Linux reports KiB)
     memory = {"peak_rss_mib_max_rank": comm.allreduce(rss, op=MPI.MAX),
               "peak_rss_mib_sum": comm.allreduce(rss, op=MPI.SUM)}
-    summary = None
-    if comm.rank == 0:
-        series = read_timeseries(out_dir / "timeseries.csv") if sim.step_count else {}
+
+    def build_and_write():  # rank 0
+        try:
+            series = read_timeseries(out_dir / "timeseries.csv") if sim.step_count else {}
+        except (OSError, InputError):  # a write that failed (disk full) may have left it short
+            series = {}
         steps = max(sim.step_count, 1)
         summary = {
             "scene": scene.name,
@@ -219,8 +296,10 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_json), encoding="utf-8")
-    return comm.bcast(summary, root=0)
+        atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))
+        return summary
+
+    return on_root(comm, build_and_write, step="summary")
 
 
 def compare_with_reference(scene, summary: dict) -> dict:

@@ -27,35 +27,32 @@ import json
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import InputError
+from ..io.runfolder import atomic_write_text
+from ..safe_yaml import read_text_file, read_yaml_file
 from . import cases
+
+MAX_RUNS = 1000
 PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_motion", "observables", "output")
 
 
 class Study(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
     config: str
     observables: list[str] = Field(min_length=1)
     base: dict[str, Any] = {}
     ladder: dict[str, list[Any]] = Field(min_length=1)
-    ranks: int = Field(default=1, ge=1)
+    ranks: int = Field(default=1, ge=1, le=1024)
 
 
 def load_study(path: str | Path) -> Study:
     """Read and check a study file; InputError (one line, naming the key) when it is not usable."""
     path = Path(path)
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise InputError(f"{path}: line {mark.line + 1 if mark else '?'}: could not parse YAML") from None
+    raw = read_yaml_file(path, "study file")
     if not isinstance(raw, dict):
         raise InputError(f"{path}: top level must be a mapping")
     try:
@@ -63,12 +60,16 @@ def load_study(path: str | Path) -> Study:
     except ValidationError as exc:
         err = exc.errors(include_url=False)[0]
         where = ".".join(str(p) for p in err["loc"]) or "study"
-        raise InputError(f"{path}: {where}: {err['msg'].lower()}") from None
+        raise InputError(f"{path}: {where}: {' '.join(err['msg'].lower().split())[:200]}") from None
     if not _config_path(study, path).exists():
         raise InputError(f"{path}: config: {study.config} not found")
+    runs = 1
     for key, values in study.ladder.items():
         if not values:
             raise InputError(f"{path}: ladder.{key}: needs at least one value")
+        runs *= len(values)
+    if runs > MAX_RUNS:
+        raise InputError(f"{path}: ladder: {runs:,} runs, more than {MAX_RUNS:,}")
     # every run's scene must validate before anything runs (a bad value costs a second, not an hour)
     from ..config import load_scene
 
@@ -110,22 +111,44 @@ def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tu
 
 
 def _measure(study: Study, folder: Path) -> dict | None:
-    path = folder / "summary.json"
-    if not path.exists():
+    s = read_summary(folder)
+    if s is None:
         return None
-    s = json.loads(path.read_text())
+    try:
+        return _measured(study, folder, s)
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise InputError(f"{folder / 'summary.json'}: not the summary of a cosserat-fsi run (damaged?)") from None
+
+
+def _measured(study: Study, folder: Path, s: dict) -> dict:
     errors = {}
     for key in study.observables:
         name, _, part = key.partition(".")
         entry = (s.get("benchmark") or {}).get(name) or {}
         entry = entry.get(part) if part else entry
-        errors[key] = entry.get("error") if isinstance(entry, dict) else None
+        error = entry.get("error") if isinstance(entry, dict) else None
+        errors[key] = None if error is None else float(error)
     phases = s.get("wall_time", {}).get("phases", {})
     steps = max(s.get("time", {}).get("steps", 1), 1)
-    return {"status": s.get("status"), "errors": errors, "wall": s["wall_time"]["total"],
-            "per_step": s["wall_time"]["per_step"], "phases": {p: phases.get(p, 0.0) / steps for p in PHASES},
-            "memory": (s.get("memory") or {}).get("peak_rss_mib_sum"), "vertices": s["mesh"]["vertices"],
-            "dofs": s["dofs"]["total"]}
+    return {"status": s.get("status"), "errors": errors, "wall": float(s["wall_time"]["total"]),
+            "per_step": float(s["wall_time"]["per_step"]),
+            "phases": {p: float(phases.get(p, 0.0)) / steps for p in PHASES},
+            "memory": (s.get("memory") or {}).get("peak_rss_mib_sum"), "vertices": int(s["mesh"]["vertices"]),
+            "dofs": int(s["dofs"]["total"])}
+
+
+def read_summary(folder: Path) -> dict | None:
+    """A run's summary.json (None if there is none yet); InputError naming it if it is damaged or foreign."""
+    path = Path(folder) / "summary.json"
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(read_text_file(path, "summary file", 16 << 20))
+    except ValueError:
+        data = None
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: not the summary of a cosserat-fsi run (damaged?)")
+    return data
 
 
 def pareto(points: list[tuple[float, float]]) -> list[int]:
@@ -172,7 +195,7 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path
     if figure:
         lines += [f"![pareto]({figure})", ""]
     path = out / f"study_{study.name}.md"
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    atomic_write_text(path, "\n".join(lines) + "\n")
     return path
 
 
@@ -204,6 +227,8 @@ def _plot(study, points, labels, front, out: Path) -> str:
 def main_study(path: str | Path, out: str | Path | None = None, jobs: int = 1, report_only: bool = False) -> Path:
     """Check the study file, run what is not finished (unless ``report_only``) and write the report."""
     study_path = Path(path)
+    if not 1 <= jobs <= 64:
+        raise InputError(f"--jobs: must be 1..64 (got {jobs})")
     study = load_study(study_path)
     out = Path(out) if out else Path.cwd()
     try:

@@ -25,13 +25,13 @@ import json
 import logging
 import os
 import pathlib
-import tempfile
 import sys
 from typing import Annotated, get_args
 
 from pydantic import Field
 
-from . import _gmsh
+from ..errors import InputError
+from . import _gmsh  # noqa: F401  (python -m cosserat_fsi.geometry imports it from here)
 from ._model import MAX_LEVEL, GeometryBase
 from .box import Box
 from .channel import Channel
@@ -45,6 +45,7 @@ Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box, 
 """The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
 MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m in get_args(get_args(Geometry)[0])}
 """Geometry name -> its model class."""
+_MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
 __all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Flag", "Geometry", "GeometryBase", "MODELS",
            "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir"]
@@ -54,54 +55,103 @@ log = logging.getLogger("cosserat_fsi")
 
 def default_cache_dir() -> pathlib.Path:
     """Where meshes are cached: ``$COSSERAT_FSI_MESH_CACHE`` if set (the Makefile and the tests set it to the
-    repository's ``meshes/``), else ``$XDG_CACHE_HOME/cosserat-fsi/meshes`` (default ``~/.cache/...``)."""
-    explicit = os.environ.get("COSSERAT_FSI_MESH_CACHE")
-    if explicit:
-        return pathlib.Path(explicit).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
-    return pathlib.Path(base).expanduser() / "cosserat-fsi" / "meshes"
+    repository's ``meshes/``; InputError if it cannot be written), else ``$XDG_CACHE_HOME/cosserat-fsi/meshes``
+    (default ``~/.cache/...``), else a folder in the temporary directory (cache.py)."""
+    from ..cache import mesh_cache_dir
+
+    return mesh_cache_dir()
 
 
 def _sha256(path: pathlib.Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def _clean_stale_temporaries(cache: pathlib.Path) -> None:
+    """Remove ``.<stem>.<pid>.tmp*`` files of processes that are gone (a run killed while meshing)."""
+    for tmp in cache.glob(".*.tmp*"):
+        try:
+            pid = int(tmp.name.split(".")[-2] if tmp.name.endswith(".tmp") else tmp.name.rsplit(".tmp", 1)[0]
+                      .rsplit(".", 1)[1])
+        except (ValueError, IndexError):
+            continue
+        if pid != os.getpid() and not _alive(pid):
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None) -> pathlib.Path:
     """Path of the cached .msh of a (validated) geometry model; builds it with gmsh if missing.
 
-    Writes through a temporary file and ``os.replace``, so an interrupted run never leaves a partial mesh.
+    gmsh runs in a child process (``python -m cosserat_fsi.geometry``): a signal stops it at once, its
+    crash (e.g. out of memory) is a one-line InputError, and it writes to a temporary name that is renamed
+    when complete, so the cache never holds a partial mesh (temporaries of dead processes are removed).
     """
     name, level, full = geometry.name, geometry.level, geometry.msh_params()
-    module = sys.modules[type(geometry).__module__]  # the builder module that defines the model
     key = json.dumps({"name": name, "level": level, "params": full, "version": BUILDER_VERSION}, sort_keys=True)
     cache = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = cache / f"{name}-L{level}-{hashlib.sha1(key.encode()).hexdigest()[:10]}.msh"
     stamp = path.with_suffix(".sha256")
-    if path.exists() and stamp.exists() and stamp.read_text().strip() == _sha256(path):
-        return path
+    try:
+        if path.exists() and stamp.exists() and stamp.read_text().strip() == _sha256(path):
+            return path
+    except (OSError, UnicodeDecodeError):
+        pass
     if path.exists():  # no stamp (older cache) or a damaged file: rebuild, never read a bad mesh
         log.warning("mesh cache %s is damaged or unverified: rebuilding it", path.name)
-    cache.mkdir(parents=True, exist_ok=True)
-    scale = module.SEED_SCALE if level == "seed" else 2.0**-level
-    import gmsh
-
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".msh", dir=cache)
-    os.close(fd)
     try:
-        gmsh.initialize(["gmsh", "-nopopup"], readConfigFiles=False)
-        try:
-            _gmsh.configure(gmsh)
-            module.build(gmsh, scale, full)
-            gmsh.write(tmp)
-        finally:
-            gmsh.finalize()
-        os.chmod(tmp, 0o644)
-        digest = _sha256(pathlib.Path(tmp))
+        cache.mkdir(parents=True, exist_ok=True)
+        _clean_stale_temporaries(cache)
+    except OSError as exc:
+        raise InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
+    tmp = cache / f".{path.stem}.{os.getpid()}.tmp.msh"
+    stamp_tmp = cache / f".{stamp.name}.{os.getpid()}.tmp"
+    try:
+        _run_gmsh(name, level, full, tmp)
+        digest = _sha256(tmp)
         os.replace(tmp, path)
-        stamp_tmp = stamp.with_name(stamp.name + f".{os.getpid()}")
         stamp_tmp.write_text(digest + "\n")
         os.replace(stamp_tmp, stamp)
+    except OSError as exc:
+        raise InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
     finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        for leftover in (tmp, stamp_tmp):
+            try:
+                leftover.unlink()
+            except OSError:
+                pass
     return path
+
+
+def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
+    """Mesh in a child process into ``tmp``; InputError if gmsh fails or dies."""
+    import subprocess
+    import sys
+
+    drop = ("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPI_LOCALRANKID", "MPI_LOCALNRANKS")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(drop)}
+    request = json.dumps({"name": name, "level": level, "params": full, "out": str(tmp)})
+    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi.geometry", request], env=env,
+                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        output, _ = proc.communicate()
+    except BaseException:  # a signal or Ctrl-C in the parent: stop gmsh now, then go on unwinding
+        proc.kill()
+        proc.wait()
+        raise
+    if proc.returncode != 0 or not tmp.is_file():
+        lines = output.decode("utf-8", "replace").strip().splitlines()
+        why = lines[-1] if lines else (f"killed by signal {-proc.returncode}" if proc.returncode < 0
+                                       else f"exit code {proc.returncode}")
+        raise InputError(f"geometry: gmsh could not mesh {name} level {level} ({why[:200]})")

@@ -10,6 +10,12 @@ from typing import Annotated, Any, ClassVar, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 MAX_LEVEL = 6
+MIN_DIMENSION, MAX_DIMENSION = 1e-6, 1e6
+"""Bounds of every length parameter (m): below, gmsh's geometric tolerance merges points."""
+MAX_CELLS = 10_000_000
+"""Largest mesh built (cells, estimated before gmsh runs): level 6 of turek_hron has about 6.5 M."""
+SCENE_KEY = {"thickness": "height", "size": "length"}
+"""Builder parameter -> the scene's geometry key it comes from (for messages)."""
 PositiveFloat = Annotated[float, Field(gt=0)]
 
 
@@ -17,7 +23,7 @@ class GeometryBase(BaseModel):
     """A mesh level (0..MAX_LEVEL, each halving the element size; ``seed`` where the seed paper's mesh
     exists). ``null`` for any key means its default."""
 
-    model_config = ConfigDict(extra="forbid", strict=True)
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)  # as config._Section
 
     SEED: ClassVar[bool] = False  # has level "seed" (the seed paper's mesh size)
     FLUID: ClassVar[bool] = True  # has fluid cells: the scene needs a fluid section
@@ -42,6 +48,25 @@ class GeometryBase(BaseModel):
         if type(value) is int and 0 <= value <= MAX_LEVEL:
             return value
         raise ValueError(f"must be an integer 0..{MAX_LEVEL} or 'seed' (got {value!r})")
+
+    @model_validator(mode="after")
+    def _size(self):
+        """Lengths within [MIN_DIMENSION, MAX_DIMENSION] m, and the mesh's cell count, estimated before gmsh
+        runs (builders with an ``estimate_cells``), at most MAX_CELLS: the keys that cause it are named."""
+        for key, value in self.msh_params().items():
+            if isinstance(value, float) and not MIN_DIMENSION <= value <= MAX_DIMENSION:
+                key = SCENE_KEY.get(key, key)
+                raise ValueError(f"geometry.{key}: must be between {MIN_DIMENSION:g} and {MAX_DIMENSION:g} "
+                                 f"(m; got {value!r})")
+        module = importlib.import_module(type(self).__module__)
+        if hasattr(module, "estimate_cells"):
+            scale = getattr(module, "SEED_SCALE", 1.0) if self.level == "seed" else 2.0 ** -self.level
+            cells = module.estimate_cells(scale, self.msh_params())
+            if cells > MAX_CELLS:
+                keys = ", ".join(f"geometry.{SCENE_KEY.get(k, k)}" for k in ("level", *self.msh_params()))
+                raise ValueError(f"geometry: {keys} give about {cells:.3g} cells, more than {MAX_CELLS:,} "
+                                 "(lower the level or make the sides less elongated)")
+        return self
 
     @property
     def solid_cells(self) -> bool:

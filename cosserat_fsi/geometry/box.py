@@ -28,7 +28,7 @@ class Box(GeometryBase):
     """Closed unit box around a solid disk of ``radius`` (default 0.2, below 0.5)."""
 
     name: Literal["box"] = "box"
-    radius: float = Field(default=0.2, gt=0, lt=0.5)
+    radius: float = Field(default=0.2, ge=0.01, lt=0.5)  # below 0.01 the disk is smaller than its cells
 
     @property
     def solid_cells(self) -> bool:

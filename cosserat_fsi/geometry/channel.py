@@ -35,6 +35,12 @@ def describe(params: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def estimate_cells(scale: float, params: dict[str, Any]) -> int:
+    """Number of triangles ``build`` makes (exact; cheap, before gmsh runs)."""
+    ny = round(8 / scale)
+    return 2 * max(1, round(8 * params["length"] / params["height"])) * ny // 8 * ny
+
+
 def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; divisions are 8 / ``scale`` across."""
     length, height = params["length"], params["height"]

@@ -46,6 +46,12 @@ def describe(params: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def estimate_cells(scale: float, params: dict[str, Any]) -> int:
+    """Number of triangles ``build`` makes (exact; cheap, before gmsh runs)."""
+    ny = round(4 / scale)
+    return 2 * max(1, round(4 * params["length"] / params["thickness"])) * ny // 4 * ny
+
+
 def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; 4 / ``scale`` divisions across the flag."""
     length, thickness = params["length"], params["thickness"]

@@ -34,6 +34,11 @@ def describe(params: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def estimate_cells(scale: float, params: dict[str, Any]) -> int:
+    """Number of triangles ``build`` makes (exact; cheap, before gmsh runs)."""
+    return 2 * round(8 / scale) ** 2
+
+
 def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     """Create and mesh the model in the current gmsh session; 8 / ``scale`` divisions per side."""
     n = round(8 / scale)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
 from pathlib import Path
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..safe_yaml import read_text_file
 
 FORMAT = 1
 
@@ -32,52 +34,146 @@ def scene_fingerprint(scene) -> str:
 
 
 def write_checkpoint(run_dir: Path, sim, comm, meta: dict) -> None:
-    """Write the state of every rank and ``meta`` (+ step, t, ranks) into run_dir/checkpoint."""
+    """Write the state of every rank and ``meta`` (+ step, t, ranks) into run_dir/checkpoint.
+
+    Collective; a failure on any rank (disk full) is raised on every rank (``parallel``), and the
+    previous checkpoint is then kept as it was."""
+    from ..parallel import agree, failpoint, on_root
+    from .runfolder import atomic_write_text, output_error
+
     final, tmp = run_dir / "checkpoint", run_dir / "checkpoint.tmp"
-    if comm.rank == 0:
+
+    def start():
         shutil.rmtree(tmp, ignore_errors=True)
-        tmp.mkdir()
-    comm.barrier()
-    with open(tmp / f"rank{comm.rank:04d}.npz", "wb") as f:
-        np.savez(f, **sim.checkpoint())
-        f.flush()
-        os.fsync(f.fileno())
-    comm.barrier()
-    if comm.rank == 0:
-        meta = {"format": FORMAT, "ranks": comm.size, "step": sim.step_count, "t": sim.t, **meta}
-        (tmp / "meta.json").write_text(json.dumps(meta, indent=2), encoding="utf-8")
+        try:
+            tmp.mkdir()
+        except OSError as exc:
+            raise output_error(tmp, exc) from None
+
+    def write_rank():
+        path = tmp / f"rank{comm.rank:04d}.npz"
+        try:
+            failpoint("checkpoint.rank")
+            with open(path, "wb") as f:
+                np.savez(f, **sim.checkpoint())
+                f.flush()
+                os.fsync(f.fileno())
+        except OSError as exc:
+            raise output_error(path, exc) from None
+
+    def finish():
+        full = {"format": FORMAT, "ranks": comm.size, "step": sim.step_count, "t": sim.t, **meta}
+        atomic_write_text(tmp / "meta.json", json.dumps(full, indent=2))
         old = run_dir / "checkpoint.old"
+        try:
+            shutil.rmtree(old, ignore_errors=True)
+            if final.exists():
+                os.replace(final, old)
+            os.replace(tmp, final)
+        except OSError as exc:
+            raise output_error(final, exc) from None
         shutil.rmtree(old, ignore_errors=True)
-        if final.exists():
-            os.replace(final, old)
-        os.replace(tmp, final)
-        shutil.rmtree(old, ignore_errors=True)
-    comm.barrier()
+
+    try:
+        on_root(comm, start, step="checkpoint")
+        agree(comm, write_rank)
+        on_root(comm, finish, step="checkpoint.meta")
+    except BaseException:
+        if comm.rank == 0:
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _meta_problem(meta) -> str | None:
+    """What is wrong with a parsed meta.json (types and ranges), or None."""
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        return f"is not a cosserat-fsi checkpoint (format {FORMAT})"
+    rules = {"ranks": (int, 1, 1 << 20), "step": (int, 0, 1 << 40), "rows": (int, 0, 1 << 40),
+             "field_steps": (int, 0, 1 << 40), "t": ((int, float), 0.0, math.inf)}
+    for key, (kind, lo, hi) in rules.items():
+        value = meta.get(key)
+        if isinstance(value, bool) or not isinstance(value, kind) or not (lo <= value < hi):
+            return f"has a bad {key!r} ({str(value)[:40]})"
+    if not isinstance(meta.get("fingerprint"), str):
+        return "has no scene fingerprint"
+    if meta["rows"] != meta["step"]:
+        return f"has {meta['rows']} rows for step {meta['step']}"
+    return None
 
 
 def read_checkpoint(run_dir: Path, comm, fingerprint: str) -> tuple[dict, list]:
     """(meta, the states of all ranks that wrote it); InputError naming --restart if it cannot be used."""
     folder = Path(run_dir) / "checkpoint"
     meta_path = folder / "meta.json"
-    if not meta_path.exists():
+    if not meta_path.is_file():
         raise InputError(f"--restart: {run_dir} has no checkpoint (no {meta_path.name} in {folder})")
     try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise InputError(f"--restart: {meta_path} is not a checkpoint ({exc})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise InputError(f"--restart: {meta_path} is not a cosserat-fsi checkpoint (format {FORMAT})")
+        meta = json.loads(read_text_file(meta_path, "checkpoint file", 1 << 16))
+    except ValueError as exc:
+        raise InputError(f"--restart: {meta_path} is not a checkpoint ({str(exc)[:80]})") from None
+    except InputError as exc:
+        raise InputError(f"--restart: {exc}") from None
+    problem = _meta_problem(meta)
+    if problem:
+        raise InputError(f"--restart: {meta_path} {problem}")
     if meta.get("fingerprint") != fingerprint:
         raise InputError("--restart: the checkpoint is from another scene (only time.t_end and output may "
                          "change on a restart)")
     states = []
-    for rank in range(int(meta.get("ranks", 0))):
+    for rank in range(meta["ranks"]):
         path = folder / f"rank{rank:04d}.npz"
         try:
-            with np.load(path) as data:
+            with np.load(path, allow_pickle=False) as data:
                 states.append({k: data[k] for k in data.files})
-        except (OSError, ValueError) as exc:
+        except Exception as exc:  # noqa: BLE001 (zip, pickle, value errors: a damaged file)
             raise InputError(f"--restart: cannot read {path} ({exc.__class__.__name__})") from None
-    if not states:
-        raise InputError(f"--restart: {meta_path} names no rank files")
+    _check_states(states, meta, folder)
     return meta, states
+
+
+def _check_states(states: list[dict], meta: dict, folder: Path) -> None:
+    """Same keys on every rank, numeric finite arrays, matching .x/.v lengths, the step and time of meta."""
+    keys = set(states[0])
+    for rank, state in enumerate(states):
+        where = folder / f"rank{rank:04d}.npz"
+        if set(state) != keys or not {"t", "step_count"} <= keys:
+            raise InputError(f"--restart: {where} does not match the other rank files")
+        for key, a in state.items():
+            if a.dtype.kind not in "fiu" or not np.isfinite(a).all():
+                raise InputError(f"--restart: {where}: {key} is not finite numbers")
+        for key in keys:
+            if key.endswith(".x"):
+                v = state.get(key[:-2] + ".v")
+                if v is None or len(v) != len(state[key]) or state[key].ndim != 2:
+                    raise InputError(f"--restart: {where}: {key[:-2]} has inconsistent sizes")
+        if state["t"].shape != () or state["step_count"].shape != () or int(state["step_count"]) != meta["step"] \
+                or abs(float(state["t"]) - meta["t"]) > 1e-9 * max(1.0, abs(meta["t"])):
+            raise InputError(f"--restart: {where} is of another step than {folder / 'meta.json'}")
+
+
+def check_restart_files(run_dir: Path, meta: dict, t_end: float, columns: list[str] | None,
+                        fields: bool) -> None:
+    """Rank 0, before anything is written: the folder can continue the checkpoint ``meta``.
+
+    ``t_end`` at or after the checkpoint's time; timeseries.csv has the header ``t,<columns>`` (any
+    columns if None) and at least ``meta['rows']`` complete numeric rows; fields.xdmf/fields.h5 list at
+    least ``meta['field_steps']`` steps and no other program holds fields.h5 (when ``fields`` is on, or
+    when there are earlier steps). InputError naming the file otherwise."""
+    from .runfolder import file_in_use
+    from .timeseries import check_timeseries
+
+    if t_end < meta["t"] - 1e-9 * max(1.0, meta["t"]):
+        raise InputError(f"time.t_end: {t_end!r} is before the checkpoint's time {meta['t']!r} "
+                         "(a restart cannot go back)")
+    check_timeseries(Path(run_dir) / "timeseries.csv", meta["rows"], columns, "--restart: ")
+    xdmf, h5 = Path(run_dir) / "fields.xdmf", Path(run_dir) / "fields.h5"
+    need = meta["field_steps"]
+    if not fields and need == 0:
+        return
+    if need == 0 and not xdmf.exists() and not h5.exists():
+        return
+    from .fields_check import check_fields
+
+    check_fields(xdmf, h5, need, "--restart: ")
+    if fields and file_in_use(h5):
+        raise InputError(f"--restart: {h5} is open in another program (ParaView? plot?); close it first")

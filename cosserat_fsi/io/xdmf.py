@@ -11,15 +11,24 @@ HDF5 layout: ``/mesh/topology`` (int64, cells x 3), ``/mesh/geometry/<step:06d>`
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from cosserat_fsi import compat  # before dolfinx
-from cosserat_fsi.errors import InputError
+from cosserat_fsi.errors import InputError, OutputError
+from cosserat_fsi.io.runfolder import atomic_write_text
+from cosserat_fsi.parallel import failpoint, on_root, share
 import dolfinx.fem
+
+
+def _write_error(path: Path, exc: BaseException) -> BaseException:
+    """An OutputError naming ``path`` for a failed write (an InputError/OutputError passes through)."""
+    if isinstance(exc, InputError):
+        return exc
+    reason = getattr(exc, "strerror", None) or " ".join(str(exc).split())[:120] or exc.__class__.__name__
+    return OutputError(f"{path}: cannot write ({reason})")
 
 
 def _vec3(a: np.ndarray) -> np.ndarray:
@@ -69,21 +78,20 @@ class MovingMeshXDMF:
             self.cell_order = np.argsort(np.concatenate(all_cells), kind="stable")
             sorted_nodes = nodes[self.node_order]
             topology = np.searchsorted(sorted_nodes, np.concatenate(cells)[self.cell_order])
-        error = None
-        if comm.rank == 0:
+        def open_files():
             if keep_steps is None:
-                self.h5 = h5py.File(self.h5path, "w")
-                self.h5.create_dataset("mesh/topology", data=topology.astype(np.int64))
-                self.h5.flush()
-            else:
                 try:
-                    self._reopen(topology, keep_steps)
-                except InputError as exc:
-                    error = str(exc)
-        error = comm.bcast(error, root=0)
-        if error:
-            raise InputError(error)
-        self.num_steps = comm.bcast(len(self.steps) if comm.rank == 0 else None, root=0)
+                    self.h5 = h5py.File(self.h5path, "w")
+                    self.h5.create_dataset("mesh/topology", data=topology.astype(np.int64))
+                    self.h5.flush()
+                except Exception as exc:  # noqa: BLE001 (h5py wraps OS errors in its own types)
+                    self.close()
+                    raise _write_error(self.h5path, exc) from None
+            else:
+                self._reopen(topology, keep_steps)
+            return len(self.steps)
+
+        self.num_steps = on_root(comm, open_files, step="fields.open")
 
     def _reopen(self, topology: np.ndarray, keep: int):
         """Rank 0: open the existing pair, drop the steps after the first ``keep``, and continue."""
@@ -94,7 +102,7 @@ class MovingMeshXDMF:
             self.h5 = h5py.File(self.h5path, "a")
             ok = (len(times) >= keep and "mesh/topology" in self.h5
                   and np.array_equal(self.h5["mesh/topology"][:], topology))
-        except (OSError, ValueError):
+        except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ...; a locked or damaged file)
             ok = False
         if not ok:
             raise InputError(f"--restart: {self.path} does not match the checkpoint (needs {keep} steps)")
@@ -149,17 +157,27 @@ class MovingMeshXDMF:
             data[f"point/{name}"] = self._gather(self._vertex_values(u), self.node_order)
         for name, a in (cell_data or {}).items():
             data[f"cell/{name}"] = self._gather(np.asarray(a)[: self.n_cells], self.cell_order)
-        if self.comm.rank == 0:
-            shapes = {}
-            for key, a in data.items():
-                a = a if key == "mesh/geometry" else _vec3(a)
-                self.h5.create_dataset(f"{key}/{step:06d}", data=a)
-                shapes[key] = (a.shape, a.dtype)
-            self.h5.flush()
-            self.steps.append((float(t), shapes))
-            self._write_xdmf()
+        error = None
+        try:
+            failpoint("fields.write")  # every rank: a fault on any rank is shared below
+        except Exception as exc:  # noqa: BLE001
+            error = _write_error(self.h5path, exc)
+        if self.comm.rank == 0 and error is None:
+            try:
+                if self.h5 is None:
+                    raise OSError(5, "the file was closed after an earlier error")
+                shapes = {}
+                for key, a in data.items():
+                    a = a if key == "mesh/geometry" else _vec3(a)
+                    self.h5.create_dataset(f"{key}/{step:06d}", data=a)
+                    shapes[key] = (a.shape, a.dtype)
+                self.h5.flush()
+                self.steps.append((float(t), shapes))
+                self._write_xdmf()
+            except Exception as exc:  # noqa: BLE001 (disk full: h5py raises its own types)
+                error = _write_error(self.h5path, exc)
+        share(self.comm, error)  # instead of a barrier: every rank learns of a failed write
         self.num_steps += 1
-        self.comm.barrier()
 
     def _write_xdmf(self):
         h5name = self.h5path.name
@@ -184,14 +202,15 @@ class MovingMeshXDMF:
                           _data_item(h5name, f"/{key}/{step:06d}", shape, dtype), "</Attribute>"]
             lines.append("</Grid>")
         lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        tmp.write_text("\n".join(lines))
-        os.replace(tmp, self.path)
+        atomic_write_text(self.path, "\n".join(lines))
 
     def close(self):
         """Close the HDF5 file (the files are complete after every write already)."""
         if self.h5 is not None:
-            self.h5.close()
+            try:
+                self.h5.close()
+            except Exception:  # noqa: BLE001 (a full disk: the steps listed in the .xdmf are flushed)
+                pass
             self.h5 = None
 
     def __enter__(self):

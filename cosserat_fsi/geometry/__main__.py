@@ -1,0 +1,37 @@
+"""Child process of ``build_msh``: ``python -m cosserat_fsi.geometry '{"name", "level", "params", "out"}'``
+meshes one geometry with gmsh into ``out``. Exit 0 on success; on failure one line on stdout and exit 1."""
+
+import json
+import signal
+import sys
+
+from . import _MODULES, _gmsh
+
+
+def main(request: str) -> int:
+    """Build the mesh the JSON ``request`` describes."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)  # the parent cleans up; die at once
+    spec = json.loads(request)
+    module = _MODULES[spec["name"]]
+    scale = module.SEED_SCALE if spec["level"] == "seed" else 2.0 ** -spec["level"]
+    import gmsh
+
+    from ..parallel import failpoint
+
+    failpoint("gmsh")  # the fault suite: a gmsh that fails or dies
+    try:
+        gmsh.initialize(["gmsh", "-nopopup"], readConfigFiles=False)
+        try:
+            _gmsh.configure(gmsh)
+            module.build(gmsh, scale, spec["params"])
+            gmsh.write(spec["out"])
+        finally:
+            gmsh.finalize()
+    except Exception as exc:  # noqa: BLE001 (reported to the parent as one line)
+        print(f"{exc.__class__.__name__}: {' '.join(str(exc).split())}", flush=True)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1]))

@@ -1,0 +1,158 @@
+"""Every number is a number, every file is read within limits: bad scenes, YAML and arguments are one line
+``error: <key or file>: <problem>``, exit 2, before anything is written (in-process: the CLI's ``main``)."""
+
+from __future__ import annotations
+
+import signal
+
+import pytest
+
+from cosserat_fsi.app import cli
+from faultlib import TINY as TINY_TEXT, check, cli as run_cli, snapshot
+
+
+@pytest.fixture
+def main(capsys, tmp_path):
+    """``cli.main(argv)`` -> (exit code, stderr); signal handlers restored; the --out folder is checked
+    to stay as it was."""
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("precious")
+    before = snapshot(out)
+
+    def call(*argv):
+        code = cli.main([str(a) for a in argv])
+        err = capsys.readouterr().err
+        assert snapshot(out) == before
+        return code, err
+
+    call.out = out
+    yield call
+    for sig, handler in handlers.items():
+        signal.signal(sig, handler)
+
+
+def _one_line(code, err, expected):
+    lines = err.splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, (code, err)
+    assert lines[0].startswith("error: "), err
+    assert expected in lines[0], err
+
+
+NOT_NUMBERS = {  # --set overrides that must be refused at validation, with the key named
+    "mu_inf": ("fluid.mu=.inf", "fluid.mu: must be a finite number"),
+    "rho_nan": ("fluid.rho=.nan", "fluid.rho: must be a finite number"),
+    "mu_overflow": ("fluid.mu=1e999", "fluid.mu: must be a finite number"),
+    "body_force_nan": ("fluid.body_force=[.nan, 0]", "fluid.body_force[0]: must be a finite number"),
+    "mu_r_inf": ("micropolar.mu_r=.inf", "micropolar.mu_r: must be a finite number"),
+    "inertia_inf": ("micropolar.inertia=-.inf", "micropolar.inertia: must be a finite number"),
+    "body_couple_nan": ("micropolar.body_couple=.nan", "micropolar.body_couple: must be a finite number"),
+    "u_mean_inf": ("inflow.u_mean=.inf", "inflow.u_mean: must be a finite number"),
+    "penalty_inf": ("solver.penalty=.inf", "solver.penalty: must be a finite number"),
+    "krylov_rtol_nan": ("solver.krylov_rtol=.nan", "solver.krylov_rtol: must be a finite number"),
+    "t_end_inf": ("time.t_end=.inf", "time.t_end: must be a finite number"),
+    "dt_denormal": ("time.dt=5e-324", "time.dt: time.t_end / time.dt must be at most"),
+    "dt_nan": ("time.dt=.nan", "time.dt: must be a finite number"),
+    "every_huge": ("output.every=10000000000000", "output.every: must be <="),
+    "every_long_int": ("output.every=" + "9" * 5000, "output.every: could not parse value"),
+    "krylov_iterations_huge": ("solver.max_krylov_iterations=1000000000", "solver.max_krylov_iterations: must be <="),
+    "quadrature_huge": ("time.quadrature_degree=99", "time.quadrature_degree: must be <="),
+    "level_huge": ("geometry.level=" + "1" * 30, "geometry.level: must be an integer 0..6"),
+}
+
+
+@pytest.mark.parametrize("override, expected", NOT_NUMBERS.values(), ids=NOT_NUMBERS)
+def test_non_numbers_are_refused_at_validation(main, tiny_config, override, expected):
+    code, err = main("run", tiny_config, "--out", main.out, "--set", override)
+    _one_line(code, err, expected)
+
+
+FSI = ("configs/turek_hron_fsi3.yaml", "configs/micropolar_poiseuille.yaml")
+GEOMETRY = {  # sizes refused before gmsh runs, naming the keys
+    "channel_length_huge": (FSI[1], ["geometry.length=1e300"], "geometry.length: must be between"),
+    "channel_height_tiny": (FSI[1], ["geometry.height=1e-12"], "geometry.height: must be between"),
+    "channel_length_inf": (FSI[1], ["geometry.length=.inf"], "geometry.length: must be a finite number"),
+    "channel_elongated": (FSI[1], ["geometry.length=1e5", "geometry.height=1e-3", "geometry.level=2"],
+                          "error: geometry: geometry.level, geometry.length, geometry.height give about"),
+    "solid_c2_inf": (FSI[0], ["solid.c2=.inf"], "solid.c2: must be a finite number"),
+    "solid_gravity_nan": (FSI[0], ["solid.gravity=.nan"], "solid.gravity: must be a finite number"),
+    "solid_velocity_inf": (FSI[0], ["solid.initial_velocity=[0, .inf]"],
+                           "solid.initial_velocity[1]: must be a finite number"),
+}
+
+
+@pytest.mark.parametrize("config, overrides, expected", GEOMETRY.values(), ids=GEOMETRY)
+def test_sizes_and_solid_numbers_are_refused_before_meshing(main, repo_root, config, overrides, expected):
+    argv = ["run", repo_root / config, "--out", main.out]
+    for item in overrides:
+        argv += ["--set", item]
+    code, err = main(*argv)
+    _one_line(code, err, expected)
+
+
+YAML = {  # scene files the loader must refuse in one line naming the file
+    "deep_nesting": (b"a: " + b"[" * 3000 + b"]" * 3000 + b"\n", "nested deeper than"),
+    "unhashable_key": (b"? [1, 2]\n: 3\n", "a key must be a plain value"),
+    "mapping_key": (b"{{a: 1}: 2}\n", "a key must be a plain value"),
+    "huge_integer": (b"output: {every: " + b"7" * 5000 + b"}\n", "integer with more than"),
+    "latin1": (TINY_TEXT.encode() + b"name: caf\xe9\n", "not UTF-8 text (byte 0xe9"),
+    "binary": (b"\x7fELF\x02\x01\x01\x00" + bytes(range(256)), "binary data"),
+    "too_large": (b"# " + b"x" * (2 << 20) + b"\n", "larger than"),
+    "billion_laughs": (b"a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + b"".join(
+        b"%c: &%c [%s]\n" % (c, c, b", ".join([b"*%c" % (c - 1)] * 10)) for c in range(ord("b"), ord("h"))),
+        "more than 100000 values"),
+    "top_level_list": (b"- 1\n- 2\n", "top level must be a mapping"),
+    "empty": (b"", "top level must be a mapping of sections (got empty file)"),
+    "control_character": (b"name: a\x07b\n", "could not parse YAML"),
+    "bad_merge": (b"<<: 3\n", "'<<' needs a mapping"),
+}
+
+
+@pytest.mark.parametrize("content, expected", YAML.values(), ids=YAML)
+def test_yaml_limits(main, tmp_path, content, expected):
+    path = tmp_path / "scene.yaml"
+    path.write_bytes(content)
+    code, err = main("run", path, "--out", main.out)
+    _one_line(code, err, expected)
+
+
+def test_yaml_merge_keys_are_accepted(tmp_path):
+    from cosserat_fsi.config import load_scene
+
+    path = tmp_path / "scene.yaml"
+    path.write_text("x-water: &water {rho: 1.0, mu: 0.001}\n"
+                    "geometry: {name: schaefer_turek, level: 0}\n"
+                    "fluid: {<<: *water, mu: 0.002}\n"
+                    "inflow: {u_mean: 1.0}\ntime: {dt: 0.05, t_end: 0.1}\n")
+    scene = load_scene(path)
+    assert (scene.fluid.rho, scene.fluid.mu) == (1.0, 0.002)
+
+
+ARGUMENTS = {
+    "config_is_a_folder": (lambda t: ["run", t], "is a folder, not a scene file"),
+    "empty_restart": (lambda t: ["run", "{tiny}", "--restart", ""], "--restart: needs the folder"),
+    "empty_out": (lambda t: ["run", "{tiny}", "--out", ""], "--out: needs a folder"),
+    "overwrite_and_restart": (lambda t: ["run", "{tiny}", "--restart", t, "--overwrite"], "--overwrite: not with"),
+    "plot_time_nan": (lambda t: ["plot", t, "--time", "nan"], "--time: invalid finite number value"),
+    "study_jobs_zero": (lambda t: ["study", "{tiny}", "--jobs", "0"], "--jobs: must be 1..64"),
+}
+
+
+@pytest.mark.parametrize("argv, expected", ARGUMENTS.values(), ids=ARGUMENTS)
+def test_bad_arguments(main, tiny_config, tmp_path, argv, expected):
+    args = [str(a).replace("{tiny}", str(tiny_config)) for a in argv(tmp_path)]
+    code, err = main(*args)
+    _one_line(code, err, expected)
+
+
+@pytest.mark.parametrize("argv", [
+    [b"run", b"conf\xffig.yaml"],
+    [b"run", b"{tiny}", b"--set", b"name=caf\xe9"],
+    [b"run", b"{tiny}", b"--out", b"runs/\xff\xfe"],
+], ids=["config_path", "set_value", "out_path"])
+def test_non_utf8_arguments_never_reach_a_traceback(tiny_config, tmp_path, argv):
+    args = [a.replace(b"{tiny}", str(tiny_config).encode()) for a in argv]
+    result = run_cli(*args, cwd=tmp_path)
+    check(result, 2, "error: argument", "not valid UTF-8")
+    assert list(tmp_path.iterdir()) == []
