@@ -157,6 +157,13 @@ class Time(_Section):
     ``newton_*``: its iteration limit, relative residual tolerance, and the continuation steps (fractions
     of the convection, or of the load for a solid) tried one after the other when Newton from the
     Stokes/unloaded state does not converge.
+
+    ``solid_linearisation``: how the solid stress at t^{n+1} is linearised around d* on the configuration
+    the step is solved on — the seed's eq. (28) (``seed``), or ``consistent``: with the change of
+    configuration over the step and the initial-stress terms (physics/solid.py, issue 12).
+    ``solve_configuration`` (BDF2 on a moving mesh): the mesh a step is solved on, the BDF2 base
+    X + (4D^n − D^{n−1})/3 (``bdf_base``) or the extrapolation X + 2D^n − D^{n−1} of Ω^{n+1}
+    (``extrapolated``: the solid's gradients and the interface of t^{n+1} to O(δt²), scheme/stepper.py).
     """
 
     dt: PositiveFloat | None = None
@@ -167,6 +174,8 @@ class Time(_Section):
     newton_max_iterations: int = Field(default=25, ge=1, le=1000)
     newton_rtol: float = Field(default=1e-10, gt=0, lt=1)
     newton_continuation: list[Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=lambda: [0.25, 0.5, 1.0])
+    solid_linearisation: Literal["seed", "consistent"] = "seed"
+    solve_configuration: Literal["bdf_base", "extrapolated"] = "bdf_base"
 
     @model_validator(mode="after")
     def _steady_defaults(self):

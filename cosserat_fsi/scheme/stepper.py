@@ -57,6 +57,9 @@ class Stepper:
         # BDF2 on a moving mesh: the displacement Ω* − X of the configuration the step is solved on
         self.solve_displacement = (dolfinx.fem.Function(motion.M) if motion is not None and self.order == 2
                                    else None)
+        # ... and the BDF2 base (4D^n − D^{n−1})/3 the solid vertices move on from (time.solve_configuration)
+        self.extrapolate = self.solve_displacement is not None and scene.time.solve_configuration == "extrapolated"
+        self.motion_base = np.zeros_like(self.solve_displacement.x.array) if self.extrapolate else None
         self.solution = dolfinx.fem.Function(problem.space.W, name="state")
         self.a_form, self.L_form = self._forms()
         self.A = None
@@ -181,10 +184,19 @@ class Stepper:
     # ------------------------------------------------------------------------------ the mesh
     def _to_solve_configuration(self, alpha: float):
         """BDF2 on a moving mesh: put the mesh at Ω* = X + (4D^n − D^{n−1})/3 (Ω^n for the first-order
-        start step), where d* = (4d^n − d^{n−1})/3 lives, and locate in it."""
+        start step), where d* = (4d^n − d^{n−1})/3 lives, and locate in it. With
+        ``time.solve_configuration: extrapolated`` the mesh goes to X + 2D^n − D^{n−1} instead, O(δt²) from
+        Ω^{n+1}: the solid's nodes are the same material points, so d* and the linearisation (28) stay,
+        but the gradients and the interface are those of t^{n+1} up to O(δt²) (on Ω* they lag by
+        (2δt/3) u, an O(δt) error in the stress and the interface position)."""
         D = self.motion.displacement.x.array
         E = self.solve_displacement.x.array
-        E[:] = D if alpha == 1.0 else (4.0 * D - self.state.mesh_displacement_prev.x.array) / 3.0
+        D_prev = self.state.mesh_displacement_prev.x.array
+        E[:] = D if alpha == 1.0 else (4.0 * D - D_prev) / 3.0
+        if self.extrapolate:
+            self.motion_base[:] = E
+            if alpha != 1.0:
+                E[:] = 2.0 * D - D_prev
         self.motion.place(E, self.state.t)
         self.histories.mesh_moved(rebuild=True)
 
@@ -196,7 +208,7 @@ class Stepper:
             state.configuration_n.x.array[:] = self.solve_displacement.x.array
             state.mesh_displacement_prev.x.array[:] = m.displacement.x.array
             self.histories.remember_configuration()
-        base = self.solve_displacement.x.array if self.order == 2 else None
+        base = None if self.order == 1 else self.motion_base if self.extrapolate else self.solve_displacement.x.array
         w_P1 = m.move(state.velocity, self.dt, state.t, alpha, base)
         state.mesh_velocity.interpolate(w_P1)
         self.histories.mesh_moved(rebuild=self.order == 2)
