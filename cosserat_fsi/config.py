@@ -239,6 +239,9 @@ class Scene(_Section):
         for key in ("dt", "t_end"):
             if getattr(time, key) is None:
                 raise ValueError(f"time.{key}: field required (for scheme {time.scheme})")
+        if time.solid_linearisation == "consistent" and time.solve_configuration == "extrapolated":
+            raise ValueError("time.solid_linearisation: 'consistent' linearises around the BDF2 base "
+                             "configuration; with time.solve_configuration 'extrapolated' use 'seed'")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
