@@ -72,7 +72,7 @@ def mesh_cache_dir() -> Path:
     return _choose(MESH_ENV, [repo, home / "cosserat-fsi" / "meshes" if home else None], "meshes")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def jit_cache_dir() -> Path:
     """Folder of the form compiler's cache (see the module docstring); decided once per process."""
     home = _home_cache()
