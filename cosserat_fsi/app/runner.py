@@ -12,14 +12,16 @@ import resource
 import signal
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
 from ..analysis import relative_error
-from ..config import dump_resolved
+from ..config import Scene, dump_resolved
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
@@ -37,16 +39,26 @@ log = logging.getLogger("cosserat_fsi")
 PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3", "seed_fsi3"}
 
 
-def load_mesh(scene, comm):
+def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
-    path = on_root(comm, build_msh, geo, step="mesh")
+    path = on_root(comm, _build_checked, scene, step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
     return mesh, cell_tags, facet_tags, path
 
 
-def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False,
-              commit=None) -> dict:
+def _build_checked(scene: Scene) -> Path:
+    """The scene's mesh file (built if needed); a file scene checked against what its file holds."""
+    path = build_msh(scene.geometry)
+    if scene.geometry.name == "file":
+        from ..geometry.file import check_scene, read_names
+
+        check_scene(scene, read_names(path))
+    return path
+
+
+def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
+              restart: bool = False, commit: Callable[[], None] | None = None) -> dict:
     """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json).
 
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
@@ -116,6 +128,9 @@ def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, 
         if fields is not None and (steady or k % every == 0):
             with sim.timers("output"):
                 _write_fields(fields, sim)
+        if k % every == 0 and getattr(sim.motion, "min_quality", None) is not None:
+            log.info("t = %.6g: minimum cell quality %.4g (lowest so far %.4g)", sim.t, sim.motion.min_quality,
+                     sim.motion.lowest_quality)
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
@@ -294,6 +309,8 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
+        if getattr(sim.motion, "lowest_quality", None) is not None:  # 4√3|K|/Σ|e|², lowest over the run
+            summary["mesh_quality"] = {"final": sim.motion.min_quality, "lowest": sim.motion.lowest_quality}
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))
