@@ -156,3 +156,12 @@ def test_non_utf8_arguments_never_reach_a_traceback(tiny_config, tmp_path, argv)
     result = run_cli(*args, cwd=tmp_path)
     check(result, 2, "error: argument", "not valid UTF-8")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_config_that_is_a_fifo_does_not_block(main, tmp_path):
+    import os
+
+    fifo = tmp_path / "scene.yaml"
+    os.mkfifo(fifo)
+    code, err = main("run", fifo, "--out", main.out)
+    _one_line(code, err, "not a regular file")

@@ -133,3 +133,18 @@ def test_study_report_of_a_damaged_run(tmp_path, tiny_config, finished, summary)
     result = cli("study", study, "--out", tmp_path / "out", "--report-only")
     check(result, 2, "error: ", f"{run / 'summary.json'}: not the summary of a cosserat-fsi run")
     assert snapshot(run) == before
+
+
+def test_plot_of_a_run_that_has_just_started(run_copy, tmp_path):
+    """fields.h5 created, fields.xdmf not yet, the folder locked by its run: the time series are plotted."""
+    import fcntl
+    import os
+
+    (run_copy / "fields.xdmf").unlink()
+    with open(run_copy / ".lock", "w") as lock:
+        lock.write(json.dumps({"pid": os.getpid()}))
+        lock.flush()
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        result = cli("plot", run_copy, "--out", tmp_path / "plots")
+    assert result.returncode == 0, result
+    assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == ["flow.png", "forces.png"]
