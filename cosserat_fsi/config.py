@@ -197,7 +197,8 @@ class Output(_Section):
     every: int = Field(default=10, ge=1, le=MAX_COUNT)
     fields: bool = True
     progress: bool = True
-    checkpoint_every: int = Field(default=1000, ge=0, le=MAX_COUNT)  # steps between checkpoints; 0: only on SIGTERM/SIGINT
+    # steps between checkpoints; 0: only on SIGTERM/SIGINT
+    checkpoint_every: int = Field(default=1000, ge=0, le=MAX_COUNT)
 
 
 class Scene(_Section):

@@ -21,7 +21,8 @@ from __future__ import annotations
 import errno
 import os
 import signal
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 from cosserat_fsi.errors import (DivergenceError, InputError, InternalError, Interrupted, OutputError,
                                  exit_code_of)

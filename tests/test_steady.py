@@ -57,6 +57,7 @@ def test_newton_that_does_not_converge_exits_3_with_history_and_last_iterate(rep
     assert (out / "fields.h5").stat().st_size > 0 and len((out / "timeseries.csv").read_text().splitlines()) == 2
 
 
+@pytest.mark.slow
 def test_steady_serial_equals_two_ranks(repo_root, tmp_path):
     """FSI1 (fluid, solid and mesh unknowns) on level 0: the same numbers on 1 and 2 ranks to 1e-8."""
     runs = [_run(repo_root, tmp_path, "turek_hron_fsi1.yaml", "geometry.level=0", ranks=n, name=f"np{n}")

@@ -141,7 +141,7 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
         fig.suptitle(f"{run_dir.name}: {ylabel}")
         fig.tight_layout()
         path = out / f"{stem}.png"
-        _save(lambda tmp: fig.savefig(tmp, dpi=110, format="png"), path)
+        _save(lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"), path)
         plt.close(fig)
         made.append(path)
     return made
@@ -192,7 +192,7 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
             plotter.view_xy()
             plotter.camera.zoom(2.3)
         path = out / f"snapshot_t{fields.times[i]:.4f}.png"
-        _save(lambda tmp: plotter.screenshot(str(tmp)), path)
+        _save(lambda tmp, plotter=plotter: plotter.screenshot(str(tmp)), path)
         plotter.close()
         made.append(path)
     return made

@@ -2,8 +2,8 @@
 
 Each builder module defines one pydantic model of its parameters (``channel.Channel``, ...); ``Geometry`` is
 their discriminated union on ``name`` (the ``geometry`` section of a scene, validated once, by config). To
-add a geometry: a module with ``describe(params)``, ``build(gmsh, scale, params)`` and a ``GeometryBase``
-subclass, listed in ``Geometry``, ``_MODULES`` and ``MODELS`` below.
+add a geometry: a module with ``describe(params)``, ``build(gmsh, scale, params)`` (and ``SEED_SCALE`` if it has
+level "seed") and a ``GeometryBase`` subclass, listed in ``Geometry`` below.
 
 ``build_msh(geometry, cache_dir)`` returns the path of ``<name>-L<level>-<sha1>.msh``, running
 gmsh (on the calling process only) when the file is not cached yet. Level L halves the element size of
@@ -25,12 +25,13 @@ import json
 import logging
 import os
 import pathlib
-from typing import Annotated
+import sys
+from typing import Annotated, get_args
 
 from pydantic import Field
 
 from ..errors import InputError
-from . import _gmsh, box, channel, flag, schaefer_turek, square, turek_hron
+from . import _gmsh  # noqa: F401  (python -m cosserat_fsi.geometry imports it from here)
 from ._model import MAX_LEVEL, GeometryBase
 from .box import Box
 from .channel import Channel
@@ -42,10 +43,9 @@ from .turek_hron import TurekHron
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
 Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box, Field(discriminator="name")]
 """The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
-_MODULES = {"turek_hron": turek_hron, "schaefer_turek": schaefer_turek, "channel": channel, "square": square,
-            "flag": flag, "box": box}
-MODELS = {"turek_hron": TurekHron, "schaefer_turek": SchaeferTurek, "channel": Channel, "square": Square,
-          "flag": Flag, "box": Box}
+MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m in get_args(get_args(Geometry)[0])}
+"""Geometry name -> its model class."""
+_MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
 __all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Flag", "Geometry", "GeometryBase", "MODELS",
            "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir"]

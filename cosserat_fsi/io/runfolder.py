@@ -93,7 +93,7 @@ class RunFolder:
         self.held_run = False
 
     # ------------------------------------------------------------------ acquire
-    def acquire(self, mode: str = "new") -> "RunFolder":
+    def acquire(self, mode: str = "new") -> RunFolder:
         """Create, lock and check the folder for a run of ``mode`` (new, overwrite, restart)."""
         self.mode = mode
         out = self.path

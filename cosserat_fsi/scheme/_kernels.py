@@ -90,33 +90,77 @@ def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
 
 
 @_jit
-def p2_values(points, cells, x0, Jinv, dofs, values, bs):
-    """Values (n, bs) of the P2 field with local coefficients ``values`` (flat, blocked by ``bs``) at
-    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``characteristics.p2_basis``, summed in k order.
-    Zeros where the cell is −1."""
+def _basis(px, py, c, x0, Jinv):
+    """The six P2 basis functions of cell c at (px, py): ``barycentric`` then ``p2_basis``."""
+    dx, dy = px - x0[c, 0], py - x0[c, 1]
+    l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+    l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+    l0 = 1.0 - l1 - l2
+    return (l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1), 4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1)
+
+
+@_jit
+def _combine(p, values, d, b):
+    """Σ_k φ_k c_k summed in k order from 0.0, as numpy's row sum; ``d``: the six dofs × bs, ``b``: the
+    component."""
+    return (((((0.0 + p[0] * values[d[0] + b]) + p[1] * values[d[1] + b]) + p[2] * values[d[2] + b])
+              + p[3] * values[d[3] + b]) + p[4] * values[d[4] + b]) + p[5] * values[d[5] + b]
+
+
+@_jit
+def _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs):
     n = points.shape[0]
     out = np.zeros((n, bs))
-    phi = np.empty(6)
     for i in range(n):
         c = cells[i]
         if c < 0:
             continue
-        dx, dy = points[i, 0] - x0[c, 0], points[i, 1] - x0[c, 1]
-        l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
-        l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
-        l0 = 1.0 - l1 - l2
-        phi[0] = l0 * (2 * l0 - 1)
-        phi[1] = l1 * (2 * l1 - 1)
-        phi[2] = l2 * (2 * l2 - 1)
-        phi[3] = 4 * l1 * l2
-        phi[4] = 4 * l0 * l2
-        phi[5] = 4 * l0 * l1
+        p = _basis(points[i, 0], points[i, 1], c, x0, Jinv)
+        d = (dofs[c, 0] * bs, dofs[c, 1] * bs, dofs[c, 2] * bs, dofs[c, 3] * bs, dofs[c, 4] * bs, dofs[c, 5] * bs)
         for b in range(bs):
-            s = 0.0
-            for k in range(6):
-                s += phi[k] * values[dofs[c, k] * bs + b]
-            out[i, b] = s
+            out[i, b] = _combine(p, values, d, b)
     return out
+
+
+@_jit
+def _p2_values_1(points, cells, x0, Jinv, dofs, values):
+    n = points.shape[0]
+    out = np.zeros((n, 1))
+    for i in range(n):
+        c = cells[i]
+        if c < 0:
+            continue
+        p = _basis(points[i, 0], points[i, 1], c, x0, Jinv)
+        d = (dofs[c, 0], dofs[c, 1], dofs[c, 2], dofs[c, 3], dofs[c, 4], dofs[c, 5])
+        out[i, 0] = _combine(p, values, d, 0)
+    return out
+
+
+@_jit
+def _p2_values_2(points, cells, x0, Jinv, dofs, values):
+    n = points.shape[0]
+    out = np.zeros((n, 2))
+    for i in range(n):
+        c = cells[i]
+        if c < 0:
+            continue
+        p = _basis(points[i, 0], points[i, 1], c, x0, Jinv)
+        d = (2 * dofs[c, 0], 2 * dofs[c, 1], 2 * dofs[c, 2], 2 * dofs[c, 3], 2 * dofs[c, 4], 2 * dofs[c, 5])
+        out[i, 0] = _combine(p, values, d, 0)
+        out[i, 1] = _combine(p, values, d, 1)
+    return out
+
+
+def p2_values(points, cells, x0, Jinv, dofs, values, bs: int) -> np.ndarray:
+    """Values (n, bs) of the P2 field with local coefficients ``values`` (flat, blocked by ``bs``) at
+    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``characteristics.p2_basis``, summed in k order.
+    Zeros where the cell is −1. Scalar and 2-vector fields have kernels of their own (a fixed block
+    size makes them ≈ 1.5–2× faster)."""
+    if bs == 1:
+        return _p2_values_1(points, cells, x0, Jinv, dofs, values)
+    if bs == 2:
+        return _p2_values_2(points, cells, x0, Jinv, dofs, values)
+    return _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs)
 
 
 def warm_up() -> None:
@@ -132,4 +176,5 @@ def warm_up() -> None:
         for offsets in (np.array([0, 1], dtype=np.int32), np.array([0, 1], dtype=np.int64)):
             first_inside(pts, offsets, np.zeros(1, dtype=np.int32), x0, Jinv, 1e-10, 1)
         walk(pts, cells, x0, Jinv, neighbours, 1e-10, 1, 8)
-        p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6), 1)
+        for bs in (1, 2, 3):
+            p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6 * bs), bs)

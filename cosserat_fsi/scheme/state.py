@@ -117,13 +117,14 @@ class State:
 
     # ---------------------------------------------------------------------------- checkpoints
     def checkpoint(self) -> dict[str, np.ndarray]:
-        """This rank's owned dofs keyed by their reference coordinates (+ t, step_count)."""
+        """This rank's owned dofs keyed by their reference coordinates (+ t, step_count); copies, so the
+        checkpoint does not follow the run on."""
         out = {"t": np.array(self.t), "step_count": np.array(self.step_count)}
         for name, f in self.functions().items():
             n = f.function_space.dofmap.index_map.size_local
             bs = f.function_space.dofmap.index_map_bs
             out[name + ".x"] = self._reference[name][:n]
-            out[name + ".v"] = f.x.array.reshape(-1, bs)[:n]
+            out[name + ".v"] = f.x.array.reshape(-1, bs)[:n].copy()
         return out
 
     def restore(self, states: list[dict], scale_length: float) -> None:

@@ -8,8 +8,8 @@ continuation in the convection (the Reynolds number) follows (``time.newton_cont
 
 Scenes with a solid (CSM, FSI): :mod:`.steady_solid` (Lagrangian statics, monolithic ALE for FSI).
 
-A steady solve is one "step" of the run loop: :meth:`SteadyFluid.advance` solves, fills u^n, ω^n, p^n
-(so observables, outputs and checkpoints work unchanged) and calls ``before_move``. A Newton that does
+A steady solve is one "step" of the run loop: :meth:`SteadyStepper.advance` solves, fills the State
+(so observables, outputs and checkpoints work unchanged) and calls ``observe``. A Newton that does
 not converge keeps the last iterate as the state, and the runner writes it and exits with code 3.
 """
 

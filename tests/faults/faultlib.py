@@ -42,7 +42,8 @@ class Result:
         self.returncode, self.stdout, self.stderr, self.seconds = returncode, stdout, stderr, seconds
 
     def __repr__(self):
-        return f"exit {self.returncode} after {self.seconds:.1f} s\nstderr:\n{self.stderr}\nstdout:\n{self.stdout[-2000:]}"
+        return (f"exit {self.returncode} after {self.seconds:.1f} s\nstderr:\n{self.stderr}\n"
+                f"stdout:\n{self.stdout[-2000:]}")
 
 
 def cli(*args, timeout: float = TIMEOUT, launcher=(), cwd=None, **environ) -> Result:
