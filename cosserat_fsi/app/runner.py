@@ -42,9 +42,19 @@ PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3
 def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
-    path = on_root(comm, build_msh, geo, step="mesh")
+    path = on_root(comm, _build_checked, scene, step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
     return mesh, cell_tags, facet_tags, path
+
+
+def _build_checked(scene: Scene) -> Path:
+    """The scene's mesh file (built if needed); a file scene checked against what its file holds."""
+    path = build_msh(scene.geometry)
+    if scene.geometry.name == "file":
+        from ..geometry.file import check_scene, read_names
+
+        check_scene(scene, read_names(path))
+    return path
 
 
 def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
