@@ -41,7 +41,7 @@ def load_mesh(scene, comm):
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
     path = on_root(comm, build_msh, geo, step="mesh")
-    mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
+    mesh, cell_tags, facet_tags = compat.read_msh(path, comm, gdim=geo.DIM)
     return mesh, cell_tags, facet_tags, path
 
 

@@ -125,7 +125,9 @@ class SteadyFluid(SteadyStepper):
         self.solution = dolfinx.fem.Function(self.space.W, name="state")
         self.convection = self.constant(1.0)  # continuation parameter (the Reynolds number's fraction)
         u, _, omega = problem.split(self.solution)
-        micro = self.convection * ufl.dot(u, ufl.grad(omega)) if omega is not None else None
+        micro = None
+        if omega is not None:  # (u·∇)ω: u·grad ω for the 2D scalar, grad(ω) u for the 3D vector
+            micro = self.convection * (ufl.dot(u, ufl.grad(omega)) if ufl.shape(omega) == () else ufl.grad(omega) * u)
         self.residual = problem.residual(self.solution, ufl.TestFunctions(self.space.W),
                                          acceleration=self.acceleration(u), micro_acceleration=micro)
         self.compiled = compat.form(self.residual)
