@@ -177,7 +177,9 @@ class Time(_Section):
 
 
 class Solver(_Section):
-    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes.
+    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes; or
+    ``type: iterative``: FGMRES to ``krylov_rtol`` with a Schur fieldsplit preconditioner, ``amg`` on the
+    velocity block (scheme/linear_solver.py).
 
     ``reuse_factorization``: when the matrix changes every step (moving mesh), keep the last MUMPS
     factorisation as the preconditioner of a GMRES solve (relative tolerance ``krylov_rtol``) and
@@ -189,6 +191,9 @@ class Solver(_Section):
     reuse_factorization: bool = True
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
     max_krylov_iterations: int = Field(default=12, ge=1, le=10_000)
+    type: Literal["direct", "iterative"] = "direct"
+    amg: Literal["gamg", "hypre"] = "gamg"  # the velocity block's multigrid (iterative); hypre: Debian PETSc only
+    max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
 
 
 class Output(_Section):

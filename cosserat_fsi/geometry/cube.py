@@ -1,6 +1,7 @@
 """Cube cavity [0,length]^3 (3D): walls = five sides (3), lid = top y = length (6).
 
-Structured tetrahedra (gmsh transfinite volume: 6 per hexahedron), 2 divisions per side at level 0, doubled
+Structured tetrahedra (6 per hexahedron, the diagonals mirrored hexahedron by hexahedron, written into
+gmsh as a discrete mesh), 2 divisions per side at level 0, doubled
 per level: L0: 27 vertices, 48 cells; L1: 125, 384; L2: 729, 3,072; ... The 3D analogue of ``square``
 (a lid-driven cavity) and the domain of the 3D manufactured solutions.
 """
@@ -45,23 +46,60 @@ def estimate_cells(scale: float, params: dict[str, Any]) -> int:
     return 6 * divisions(scale) ** 3
 
 
+def _tetrahedra(n: int):
+    """Node coordinates (unit cube, (n+1)³ grid) and the tetrahedra: each hexahedron cut into the 6 tetrahedra
+    of its diagonal (Kuhn), mirrored in every direction with the parity of its index, so that the diagonal
+    of each corner hexahedron passes through the cube's corner. (With one diagonal direction everywhere, two
+    corner tetrahedra have all their edges on the boundary, and their corner pressure is left free: two
+    spurious P1 pressure modes of the Taylor–Hood pair.)"""
+    import itertools
+
+    import numpy as np
+
+    grid = np.linspace(0.0, 1.0, n + 1)
+    X, Y, Z = np.meshgrid(grid, grid, grid, indexing="ij")
+    points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+
+    def node(i, j, k):
+        return (i * (n + 1) + j) * (n + 1) + k
+
+    cells = []
+    for i, j, k in itertools.product(range(n), repeat=3):
+        for order in itertools.permutations(range(3)):
+            local, path = [0, 0, 0], [(0, 0, 0)]
+            for axis in order:
+                local[axis] = 1
+                path.append(tuple(local))
+            cells.append([node(*(c + (1 - a if c % 2 else a) for c, a in zip((i, j, k), vertex)))
+                          for vertex in path])
+    return points, np.array(cells)
+
+
 def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
-    """Create and mesh the model in the current gmsh session; 2 / ``scale`` divisions per side."""
+    """Write the structured tetrahedral mesh (2 / ``scale`` divisions per side) into the current gmsh
+    session as discrete entities: the volume, the walls and the lid."""
+    import numpy as np
+
     n, size = divisions(scale), params["size"]
-    occ = gmsh.model.occ
-    volume = occ.addBox(0, 0, 0, size, size, size)
-    occ.synchronize()
-    for _, curve in gmsh.model.getEntities(1):
-        gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
-    groups: dict[str, list[int]] = {}
-    for _, surface in gmsh.model.getEntities(2):
-        gmsh.model.mesh.setTransfiniteSurface(surface)
-        y = gmsh.model.occ.getCenterOfMass(2, surface)[1]
-        groups.setdefault("lid" if abs(y - size) < 1e-8 * size else "walls", []).append(surface)
-    gmsh.model.mesh.setTransfiniteVolume(volume)
+    points, cells = _tetrahedra(n)
+    points = points * size
+    volume = gmsh.model.addDiscreteEntity(3)
+    surfaces = {name: gmsh.model.addDiscreteEntity(2) for name in ("walls", "lid")}
+    tags = np.arange(1, len(points) + 1)
+    gmsh.model.mesh.addNodes(3, volume, tags, points.ravel())
+    gmsh.model.mesh.addElementsByType(volume, 4, [], (cells + 1).ravel())  # 4: 4-node tetrahedron
+    faces = np.concatenate([cells[:, [0, 1, 2]], cells[:, [0, 1, 3]], cells[:, [0, 2, 3]], cells[:, [1, 2, 3]]])
+    on_boundary = {}
+    for axis in range(3):
+        for value in (0.0, size):
+            flat = np.all(np.abs(points[faces][:, :, axis] - value) < 1e-12 * size, axis=1)
+            name = "lid" if (axis == 1 and value == size) else "walls"
+            on_boundary.setdefault(name, []).append(faces[flat])
+    for name, groups in on_boundary.items():
+        triangles = np.concatenate(groups)
+        gmsh.model.mesh.addElementsByType(surfaces[name], 2, [], (triangles + 1).ravel())  # 2: triangle
     gmsh.model.addPhysicalGroup(3, [volume], CELL_TAGS["fluid"])
     gmsh.model.setPhysicalName(3, CELL_TAGS["fluid"], "fluid")
-    for name, surfaces in groups.items():
-        gmsh.model.addPhysicalGroup(2, sorted(surfaces), FACET_TAGS[name])
+    for name, surface in surfaces.items():
+        gmsh.model.addPhysicalGroup(2, [surface], FACET_TAGS[name])
         gmsh.model.setPhysicalName(2, FACET_TAGS[name], name)
-    gmsh.model.mesh.generate(3)
