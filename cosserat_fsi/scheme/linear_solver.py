@@ -31,7 +31,7 @@ def _index_set(space, names, comm) -> PETSc.IS:
     imap = space.W.dofmap.index_map
     bs = space.W.dofmap.index_map_bs
     owned = imap.size_local * bs
-    local = np.concatenate([np.asarray(space.dofs(name)) for name in names])
+    local = np.concatenate([np.asarray(space.dofs(name)).ravel() for name in names])
     local = np.sort(local[local < owned])
     return PETSc.IS().createGeneral((local + imap.local_range[0] * bs).astype(PETSc.IntType), comm=comm)
 
