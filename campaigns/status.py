@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
 
 from cosserat_fsi.app.cases import Case, run_cases  # noqa: E402
 from cosserat_fsi.app.verdict import benchmark_rows  # noqa: E402

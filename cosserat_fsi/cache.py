@@ -5,7 +5,9 @@ ending with a folder in the system's temporary directory, so a read-only checkou
 a run. A folder named by the variable that cannot be written is bad input (``InputError`` naming the
 variable and the folder, exit 2): the user asked for it.
 
-    COSSERAT_FSI_MESH_CACHE   meshes (default <checkout>/meshes, then ~/.cache/cosserat-fsi/meshes)
+    COSSERAT_FSI_MESH_CACHE   meshes (default $XDG_CACHE_HOME or ~/.cache, then /cosserat-fsi/meshes; the
+                              Makefile, the tests and the campaigns set it to the repository's meshes/:
+                              installed code never looks for the repository)
     COSSERAT_FSI_JIT_CACHE    compiled forms (default $XDG_CACHE_HOME or ~/.cache, then /fenics)
 
 Light module: no dolfinx, gmsh or mpi4py import.
@@ -22,7 +24,6 @@ from cosserat_fsi.errors import InputError
 
 MESH_ENV = "COSSERAT_FSI_MESH_CACHE"
 JIT_ENV = "COSSERAT_FSI_JIT_CACHE"
-_REPO = Path(__file__).resolve().parents[1]
 
 
 def writable(folder: Path) -> bool:
@@ -67,9 +68,8 @@ def _choose(env: str, candidates: list[Path | None], kind: str) -> Path:
 
 def mesh_cache_dir() -> Path:
     """Folder of the gmsh mesh cache (see the module docstring)."""
-    repo = _REPO / "meshes" if (_REPO / "pyproject.toml").is_file() else None
     home = _home_cache()
-    return _choose(MESH_ENV, [repo, home / "cosserat-fsi" / "meshes" if home else None], "meshes")
+    return _choose(MESH_ENV, [home / "cosserat-fsi" / "meshes" if home else None], "meshes")
 
 
 @functools.cache

@@ -290,7 +290,7 @@ class Scene(_Section):
     @property
     def has_solid(self) -> bool:
         """True if the mesh has solid cells (Turek–Hron with a solid flag, flag, box) and a solid section."""
-        return self.solid is not None and self.geometry.solid_cells
+        return self.solid is not None and (self.geometry.solid_cells or self.geometry.SOLID_FROM_FILE)
 
     @property
     def has_fluid(self) -> bool:
@@ -477,6 +477,9 @@ def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
         raise InputError(f"{path}: {describe_yaml_error(exc)}") from None
     if isinstance(data, dict):
         data.setdefault("name", path.stem)
+        geo = data.get("geometry")
+        if isinstance(geo, dict) and geo.get("name") == "file" and isinstance(geo.get("path"), str):
+            geo["path"] = str(path.parent / Path(geo["path"]).expanduser())  # relative to the scene file
         for item in overrides:
             _apply_override(data, item)
     return validate_scene(data, str(path))

@@ -38,16 +38,22 @@ class Simulation:
     """
 
     def __init__(self, scene, mesh, cell_tags, facet_tags, comm=MPI.COMM_WORLD, exact=None,
-                 prescribed_motion: Callable | None = None):
+                 prescribed_motion: Callable | None = None, facet_ids: dict[str, int] | None = None):
         """``exact``: optional exact solution (``velocity(x, t)``, with micro-rotation
         ``micro_rotation(x, t)``, optional sources ``body_force``/``body_couple``): the initial state,
         the Dirichlet data on every boundary but the outlet and the sources (verification tests).
         ``prescribed_motion(X, t)``: a displacement of the reference coordinates that the mesh follows
-        instead of the material (ALE verification)."""
+        instead of the material (ALE verification). ``facet_ids``: facet name -> tag of the mesh (default:
+        the scene's, geometry.facet_ids: the project's table, or a file scene's own, read on rank 0)."""
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
         self.timers = Timers()
-        self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact)
+        if facet_ids is None:
+            from .geometry import facet_ids as scene_facet_ids
+            from .parallel import on_root
+
+            facet_ids = on_root(comm, scene_facet_ids, scene.geometry)
+        self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact, facet_ids=facet_ids)
         self.motion = self._motion(prescribed_motion)
         self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion)
         self.state.set_initial(self.problem, exact)

@@ -12,14 +12,16 @@ import resource
 import signal
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
 from ..analysis import relative_error
-from ..config import dump_resolved
+from ..config import Scene, dump_resolved
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
@@ -37,16 +39,26 @@ log = logging.getLogger("cosserat_fsi")
 PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3", "seed_fsi3"}
 
 
-def load_mesh(scene, comm):
+def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
-    path = on_root(comm, build_msh, geo, step="mesh")
+    path = on_root(comm, _build_checked, scene, step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm, gdim=geo.DIM)
     return mesh, cell_tags, facet_tags, path
 
 
-def run_scene(scene, out_dir: Path, comm=MPI.COMM_WORLD, progress: bool = True, restart: bool = False,
-              commit=None) -> dict:
+def _build_checked(scene: Scene) -> Path:
+    """The scene's mesh file (built if needed); a file scene checked against what its file holds."""
+    path = build_msh(scene.geometry)
+    if scene.geometry.name == "file":
+        from ..geometry.file import check_scene, read_names
+
+        check_scene(scene, read_names(path))
+    return path
+
+
+def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
+              restart: bool = False, commit: Callable[[], None] | None = None) -> dict:
     """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json).
 
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and

@@ -36,22 +36,35 @@ from ._model import MAX_LEVEL, GeometryBase
 from .box import Box
 from .channel import Channel
 from .cube import Cube
+from .file import FileGeometry, names_path, read_names
 from .flag import Flag
 from .schaefer_turek import SchaeferTurek
 from .square import Square
 from .turek_hron import TurekHron
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
-Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | Cube, Field(discriminator="name")]
+Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube,
+                     Field(discriminator="name")]
 """The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
 MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m in get_args(get_args(Geometry)[0])}
 """Geometry name -> its model class."""
 _MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
-__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "Flag", "Geometry", "GeometryBase", "MODELS",
-           "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir"]
+__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "FileGeometry", "Flag", "Geometry",
+           "GeometryBase", "MODELS", "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir",
+           "facet_ids"]
 
 log = logging.getLogger("cosserat_fsi")
+
+
+def facet_ids(geometry: GeometryBase, msh: str | os.PathLike | None = None) -> dict[str, int]:
+    """Facet name -> tag of a scene's mesh: the file's own table for ``name: file`` (read beside the cached
+    ``msh``, built if not given), else the project's (tags.FACET_TAGS). Call it on one rank and share it."""
+    if geometry.name != "file":
+        from ..tags import FACET_TAGS
+
+        return dict(FACET_TAGS)
+    return {str(k): int(v) for k, v in read_names(msh if msh is not None else build_msh(geometry))["facets"].items()}
 
 
 def default_cache_dir() -> pathlib.Path:
@@ -104,8 +117,10 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     cache = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = cache / f"{name}-L{level}-{hashlib.sha1(key.encode()).hexdigest()[:10]}.msh"
     stamp = path.with_suffix(".sha256")
+    names = names_path(path) if name == "file" else None
     try:
-        if path.exists() and stamp.exists() and stamp.read_text().strip() == _sha256(path):
+        if (path.exists() and stamp.exists() and stamp.read_text().strip() == _sha256(path)
+                and (names is None or names.is_file())):
             return path
     except (OSError, UnicodeDecodeError):
         pass
@@ -121,13 +136,15 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     try:
         _run_gmsh(name, level, full, tmp)
         digest = _sha256(tmp)
+        if names is not None:
+            os.replace(names_path(tmp), names)
         os.replace(tmp, path)
         stamp_tmp.write_text(digest + "\n")
         os.replace(stamp_tmp, stamp)
     except OSError as exc:
         raise InputError(f"mesh cache: cannot write to {cache} ({exc.strerror or exc})") from None
     finally:
-        for leftover in (tmp, stamp_tmp):
+        for leftover in (tmp, stamp_tmp, names_path(tmp)):
             try:
                 leftover.unlink()
             except OSError:
@@ -151,8 +168,12 @@ def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
         proc.kill()
         proc.wait()
         raise
+    lines = output.decode("utf-8", "replace").strip().splitlines()
+    if proc.returncode == 2 and lines:  # the child refused the input (a user's file): its one line
+        raise InputError(lines[-1][:300])
     if proc.returncode != 0 or not tmp.is_file():
-        lines = output.decode("utf-8", "replace").strip().splitlines()
         why = lines[-1] if lines else (f"killed by signal {-proc.returncode}" if proc.returncode < 0
                                        else f"exit code {proc.returncode}")
-        raise InputError(f"geometry: gmsh could not mesh {name} level {level} ({why[:200]})")
+        what = (f"geometry.path: gmsh could not mesh {pathlib.Path(full['path']).name}" if name == "file"
+                else f"geometry: gmsh could not mesh {name} level {level}")
+        raise InputError(f"{what} ({why[:200]})")

@@ -22,11 +22,19 @@ def main(request: str) -> int:
     try:
         gmsh.initialize(["gmsh", "-nopopup"], readConfigFiles=False)
         try:
-            _gmsh.configure(gmsh)
-            module.build(gmsh, scale, spec["params"])
-            gmsh.write(spec["out"])
+            if spec["name"] == "file":  # a user's file: its own options, names checked and written beside
+                names = module.build(gmsh, scale, spec["params"])
+                gmsh.write(spec["out"])
+                module.names_path(spec["out"]).write_text(json.dumps(names, sort_keys=True) + "\n")
+            else:
+                _gmsh.configure(gmsh)
+                module.build(gmsh, scale, spec["params"])
+                gmsh.write(spec["out"])
         finally:
             gmsh.finalize()
+    except getattr(module, "_Refused", ()) as exc:  # bad input: one line for the parent, exit 2
+        print(str(exc), flush=True)
+        return 2
     except Exception as exc:  # noqa: BLE001 (reported to the parent as one line)
         print(f"{exc.__class__.__name__}: {' '.join(str(exc).split())}", flush=True)
         return 1

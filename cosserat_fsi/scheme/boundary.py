@@ -13,7 +13,6 @@ from collections.abc import Callable
 import numpy as np
 from mpi4py import MPI
 
-from ..tags import FACET_TAGS
 from .problem import Problem, ramp
 
 import dolfinx
@@ -33,7 +32,7 @@ class BoundaryConditions:
         weak = problem.half_curl_walls()
         micro = problem.model.micro_rotation
         if exact is not None:
-            boundary = [name for name in FACET_TAGS if name != "outlet"]
+            boundary = [name for name in problem.facet_ids if name != "outlet"]
             self._add("velocity", boundary, exact=exact.velocity)
             if micro:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)

@@ -62,12 +62,15 @@ class Problem:
     (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
     """
 
-    def __init__(self, scene, mesh, cell_tags, facet_tags, space: MixedSpace | None = None, exact=None):
+    def __init__(self, scene, mesh, cell_tags, facet_tags, space: MixedSpace | None = None, exact=None,
+                 facet_ids: dict[str, int] | None = None):
         """``exact``: optional manufactured solution; its ``body_force(x, t)`` / ``body_couple(x, t)``,
         when present, replace f and g (or its ``sources(X)``: {"body_force": f, "body_couple": g} as UFL
-        expressions of the spatial coordinate X, time independent)."""
+        expressions of the spatial coordinate X, time independent). ``facet_ids``: facet name -> tag of this
+        mesh (default: the project's table, tags.FACET_TAGS; a file scene has its own, geometry.facet_ids)."""
         self.scene, self.mesh = scene, mesh
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
+        self.facet_ids = dict(facet_ids) if facet_ids is not None else dict(FACET_TAGS)
         self.model = Model.from_scene(scene)
         self.space = space if space is not None else mixed_space(mesh, self.model.micro_rotation)
         self.dx = ufl.dx(domain=mesh)
@@ -161,9 +164,13 @@ class Problem:
 
     # -------------------------------------------------------------------------------- boundaries
     def facets(self, *names: str) -> np.ndarray:
-        """Local indices of the facets tagged with any of ``names`` (tags.FACET_TAGS)."""
+        """Local indices of the facets tagged with any of ``names`` (names the mesh lacks: none)."""
         ft = self.facet_tags
-        return np.unique(ft.indices[np.isin(ft.values, [FACET_TAGS[n] for n in names])]).astype(np.int32)
+        return np.unique(ft.indices[np.isin(ft.values, self.facet_tag_values(*names))]).astype(np.int32)
+
+    def facet_tag_values(self, *names: str) -> list[int]:
+        """The tags of the facet groups ``names`` that this mesh's table has (``facet_ids``)."""
+        return [self.facet_ids[n] for n in names if n in self.facet_ids]
 
     def no_slip_boundaries(self) -> tuple:
         """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free)."""
@@ -206,7 +213,7 @@ class Problem:
             if walls:
                 ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
                 F = F + fluid.half_curl_wall(u, omega, tau, lambda1=self.lambda1,
-                                             ds=ds(tuple(FACET_TAGS[name] for name in walls)), mesh=self.mesh)
+                                             ds=ds(tuple(self.facet_tag_values(*walls))), mesh=self.mesh)
         return F
 
     def solid_residual(self, trial, test, d_star, dt) -> ufl.Form:

@@ -22,7 +22,7 @@ import logging
 
 from .. import compat
 from ..physics import lagrangian
-from ..tags import FACET_TAGS, FLUID, SOLID
+from ..tags import FLUID, SOLID
 from .boundary import BoundaryConditions
 from .spaces import MixedSpace
 from .steady import SteadyStepper
@@ -58,8 +58,8 @@ class SteadySolid(SteadyStepper):
         # the boundary data of the scene on this space (velocity: inflow, no-slip), d = 0 on the fixed walls
         self.boundary = BoundaryConditions(pr, comm, space=sp)
         Vd = sp.space("displacement")
-        present = [name for name in FIXED
-                   if comm.allreduce(int(np.any(pr.facet_tags.values == FACET_TAGS[name])), op=MPI.SUM)]
+        present = [name for name in FIXED if name in pr.facet_ids
+                   and comm.allreduce(int(np.any(pr.facet_tags.values == pr.facet_ids[name])), op=MPI.SUM)]
         dofs = dolfinx.fem.locate_dofs_topological((sp.sub("displacement"), Vd), mesh.topology.dim - 1,
                                                    pr.facets(*present))
         self.boundary.bcs.append(dolfinx.fem.dirichletbc(dolfinx.fem.Function(Vd), dofs, sp.sub("displacement")))

@@ -1,0 +1,152 @@
+"""A user's own scene (issue 17): ``geometry: {name: file, path: ...}`` with physical names.
+
+The .geo is meshed through gmsh with its names (areas, lengths, the interface found from the cells); the
+built-in Turek–Hron FSI3 mesh given back as a user file gives the same time series as the preset to 1e-10;
+a file scene gives the same numbers on 1 and 2 ranks. Bad files: tests/faults/test_input.py (FILE_SCENES).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from cosserat_fsi import compat
+from cosserat_fsi.app.runner import load_mesh
+from cosserat_fsi.config import load_scene, validate_geometry, validate_scene
+from cosserat_fsi.geometry import build_msh, facet_ids
+from cosserat_fsi.observables import Observables
+from cosserat_fsi.simulation import Simulation
+
+import dolfinx
+import ufl
+
+DATA = Path(__file__).parent / "data" / "user_scene"
+BLOCK = DATA / "block_channel.geo"
+
+
+def _measure(mesh, tags, kind, tag):
+    one = dolfinx.fem.Constant(mesh, 1.0)
+    measure = ufl.Measure(kind, domain=mesh, subdomain_data=tags)(tag)
+    form = compat.form((one("+") if kind == "dS" else one) * measure)
+    return mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM)
+
+
+def _mesh(geometry, cache):
+    comm = MPI.COMM_WORLD
+    path = comm.bcast(build_msh(geometry, cache) if comm.rank == 0 else None)
+    ids = comm.bcast(facet_ids(geometry, path) if comm.rank == 0 else None)
+    return (*compat.read_msh(path, comm), ids, path)
+
+
+def test_geo_names_areas_lengths_and_interface(tmp_path):
+    """Cells fluid 1 / solid 2, the file's facet ids, and the interface (3 sides of the block) found."""
+    mesh, cells, facets, ids, _ = _mesh(validate_geometry({"name": "file", "path": str(BLOCK)}), tmp_path)
+    assert ids == {"inlet": 3, "outlet": 4, "walls": 5, "clamp": 6, "interface": 7}  # file's ids; a new one
+    lengths = {name: _measure(mesh, facets, "dS" if name == "interface" else "ds", tag) for name, tag in ids.items()}
+    expected = {"inlet": 1.0, "outlet": 1.0, "walls": 3.8, "clamp": 0.2, "interface": 1.0}
+    assert lengths == pytest.approx(expected, abs=1e-12)
+    areas = [_measure(mesh, cells, "dx", k) for k in (1, 2)]
+    assert areas == pytest.approx([2.0 - 0.08, 0.08], abs=1e-12)
+
+
+def test_level_refines_and_cache_is_reused(tmp_path):
+    geo0 = validate_geometry({"name": "file", "path": str(BLOCK)})
+    geo1 = validate_geometry({"name": "file", "path": str(BLOCK), "level": 1})
+    a = build_msh(geo0, tmp_path)
+    stamp = os.stat(a).st_mtime_ns
+    assert build_msh(geo0, tmp_path) == a and os.stat(a).st_mtime_ns == stamp  # cached: not meshed again
+    b = build_msh(geo1, tmp_path)
+    count = [int(open(p).read().split("$Nodes\n", 1)[1].split()[1]) for p in (a, b)]
+    assert 3.0 < count[1] / count[0] < 5.0, count  # MeshSizeFactor halved: about 4x the vertices
+
+
+def test_msh_is_read_as_it_is(tmp_path):
+    """A .msh keeps its nodes and elements: the cached copy of the built-in mesh has the same vertices."""
+    from cosserat_fsi.geometry import TurekHron
+
+    original = build_msh(TurekHron(level=0, flag="solid"), tmp_path)
+    copy = build_msh(validate_geometry({"name": "file", "path": str(original)}), tmp_path)
+    assert copy != original
+
+    def nodes(path):
+        block = open(path).read().split("$Nodes\n", 1)[1].split("$EndNodes", 1)[0]
+        return sorted(line for line in block.splitlines() if len(line.split()) == 3 and "." in line)
+
+    assert nodes(copy) == nodes(original)
+
+
+def test_relative_path_is_the_scene_folder(tmp_path, monkeypatch):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "m.geo").write_text(BLOCK.read_text())
+    (tmp_path / "sub" / "scene.yaml").write_text(
+        "geometry: {name: file, path: m.geo}\nfluid: {rho: 1.0, mu: 1.0}\ntime: {dt: 0.1, t_end: 0.1}\n")
+    monkeypatch.chdir(tmp_path)
+    scene = load_scene(tmp_path / "sub" / "scene.yaml")
+    assert Path(scene.geometry.path) == (tmp_path / "sub" / "m.geo").resolve()
+    assert load_scene(tmp_path / "sub" / "scene.yaml").to_yaml() == scene.to_yaml()  # resolved path: stable
+
+
+def _series(scene, steps):
+    comm = MPI.COMM_WORLD
+    mesh, ct, ft, _ = load_mesh(scene, comm)
+    sim = Simulation(scene, mesh, ct, ft, comm)
+    obs = Observables(sim)
+    rows = []
+    sim.run(steps, observers=[lambda sim: rows.append(obs.evaluate())])
+    return {k: np.array([r[k] for r in rows]) for k in rows[0]}
+
+
+def test_turek_hron_fsi3_equals_its_user_file_twin(repo_root, tmp_path):
+    """configs/turek_hron_fsi3.yaml on level 0 and the same scene on the preset's mesh given as a user file
+    (names inlet, outlet, walls, cylinder, interface; cells fluid, solid): the same time series to 1e-10."""
+    preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
+                        ["geometry.level=0", "time.dt=0.01", "time.t_end=0.2", "inflow.ramp_time=0.1"])
+    msh = MPI.COMM_WORLD.bcast(build_msh(preset.geometry) if MPI.COMM_WORLD.rank == 0 else None)
+    data = preset.model_dump(mode="json")
+    data.update(benchmark=None, geometry={"name": "file", "path": str(msh)})
+    twin = validate_scene(data)
+    a, b = _series(preset, 20), _series(twin, 20)
+    common = sorted(set(a) & set(b))
+    assert {"drag", "lift", "energy_elastic", "flow_rate"} <= set(common), common
+    assert np.abs(a["lift"]).max() > 1e-3  # a flow that has started
+    for key in common:
+        assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-10 * (1 + np.abs(a[key]).max())), key
+
+
+def _scene_file(folder: Path) -> Path:
+    (folder / "block.geo").write_text(BLOCK.read_text())
+    path = folder / "scene.yaml"
+    path.write_text("geometry: {name: file, path: block.geo}\n"
+                    "fluid: {rho: 1.0, mu: 0.01}\n"
+                    "solid: {rho: 1.0, mu_s: 100.0}\n"
+                    "inflow: {u_mean: 1.0, ramp_time: 0.05}\n"
+                    "time: {dt: 0.01, t_end: 0.05}\n"
+                    "output: {progress: false, fields: false}\n")
+    return path
+
+
+def _csv(path):
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
+    """A user's .geo (an elastic block clamped to the floor: no-slip 'clamp' and 'walls', parabolic 'inlet',
+    the interface found from the cells) runs from the command line on 1 and 2 ranks with the same time
+    series (1e-10)."""
+    scene = _scene_file(tmp_path)
+    one = run_cli("run", scene, "--out", tmp_path / "one")
+    assert one.returncode == 0, one.stderr
+    two = run_cli("run", scene, "--out", tmp_path / "two", launcher=mpirun(2))
+    assert two.returncode == 0, two.stderr
+    a, b = _csv(tmp_path / "one" / "timeseries.csv"), _csv(tmp_path / "two" / "timeseries.csv")
+    assert set(a) == set(b) and len(a["t"]) == 5
+    assert np.abs(a["flow_rate"]).max() > 0.1 and np.abs(a["energy_elastic"]).max() > 0
+    for key in a:
+        assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-12), key
