@@ -103,6 +103,26 @@ class Micropolar(_Section):
     nodal_characteristics: bool = False
 
 
+class MeshMotionSettings(_Section):
+    """How the fluid mesh follows the solid (scheme/mesh_motion.py; measured in docs/performance.md).
+
+    ``method``: ``biharmonic`` (default: carries a bent flag furthest), ``elastic`` (linear elasticity) or
+    ``harmonic`` (the seed's stiffened Laplace extension). ``stiffness_exponent`` χ: the operator is
+    weighted by |K|^−χ so that small cells deform less; default the measured best of the method
+    (harmonic 1, elastic 1, biharmonic 0). ``poisson_ratio`` ν of the elastic extension.
+    """
+
+    method: Literal["harmonic", "elastic", "biharmonic"] = "biharmonic"
+    stiffness_exponent: float | None = Field(default=None, ge=0, le=4)
+    poisson_ratio: float = Field(default=0.0, gt=-1, lt=0.5)
+
+    def options(self) -> dict:
+        """Keyword arguments of scheme.mesh_motion.MeshMotion."""
+        exponent = {"harmonic": 1.0, "elastic": 1.0, "biharmonic": 0.0}[self.method]
+        return {"method": self.method, "poisson_ratio": self.poisson_ratio,
+                "stiffness_exponent": exponent if self.stiffness_exponent is None else self.stiffness_exponent}
+
+
 class Solid(_Section):
     """Incompressible Mooney–Rivlin body (seed eqs. 6–14).
 
@@ -114,7 +134,7 @@ class Solid(_Section):
     oscillation). ``volume_correction``: make the next velocity undo the area drift J ≠ 1 that the
     seed's explicit node update x += δt u accumulates (on by default; off is the seed's scheme).
     ``initial_velocity``: uniform initial velocity
-    of the solid (m/s), e.g. to start a free vibration.
+    of the solid (m/s), e.g. to start a free vibration. ``mesh_motion``: see :class:`MeshMotionSettings`.
     """
 
     rho: PositiveFloat
@@ -124,6 +144,7 @@ class Solid(_Section):
     gravity_ramp_time: NonNegFloat = 0.0
     volume_correction: bool = True
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
 
 
 class Inflow(_Section):
