@@ -82,7 +82,7 @@ class Fluid(_Section):
 
     rho: PositiveFloat
     mu: PositiveFloat
-    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # one per dimension
     viscous_form: Literal["laplacian", "symmetric"] = "laplacian"
 
 
@@ -98,7 +98,7 @@ class Micropolar(_Section):
     lambda1: NonNegFloat = 0.0
     lambda2: NonNegFloat = 0.0
     inertia: NonNegFloat = 0.0
-    body_couple: float = 0.0
+    body_couple: float | Annotated[list[float], Field(min_length=3, max_length=3)] = 0.0  # 3D: vector (a number: g_z)
     wall_condition: Literal["zero", "half_curl"] = "zero"
     nodal_characteristics: bool = False
 
@@ -198,7 +198,9 @@ class Time(_Section):
 
 
 class Solver(_Section):
-    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes.
+    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes; or
+    ``type: iterative``: FGMRES to ``krylov_rtol`` with a Schur fieldsplit preconditioner, ``amg`` on the
+    velocity block (scheme/linear_solver.py).
 
     ``reuse_factorization``: when the matrix changes every step (moving mesh), keep the last MUMPS
     factorisation as the preconditioner of a GMRES solve (relative tolerance ``krylov_rtol``) and
@@ -210,6 +212,9 @@ class Solver(_Section):
     reuse_factorization: bool = True
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
     max_krylov_iterations: int = Field(default=12, ge=1, le=10_000)
+    type: Literal["direct", "iterative"] = "direct"
+    amg: Literal["gamg", "hypre"] = "gamg"  # the velocity block's multigrid (iterative); hypre: Debian PETSc only
+    max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
 
 
 class Output(_Section):
@@ -275,6 +280,16 @@ class Scene(_Section):
             if need_flag is not None and flag != need_flag:
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
         m = self.micropolar
+        dim = geo.DIM
+        if dim == 3 and time.scheme != "steady":
+            raise ValueError(f"time.scheme: the 3D geometry {geo.name} runs with the steady solver for now (the "
+                             f"characteristics back-tracking is 2D only; got {time.scheme})")
+        if self.fluid is not None and len(self.fluid.body_force) != dim and (
+                dim == 2 or "body_force" in self.fluid.model_fields_set):
+            raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.fluid.body_force)})")
+        if dim == 2 and isinstance(m.body_couple, list):
+            raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
         if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
             raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
         if self.benchmark == "micropolar_taylor_green":
@@ -287,10 +302,11 @@ class Scene(_Section):
 
     @property
     def has_micropolar(self) -> bool:
-        """True if mu_r or lambda1 is nonzero. In 2D the micro-rotation ω e_z has no divergence, so lambda2
-        alone has no effect and builds no ω field (it would be an equation with all coefficients zero)."""
+        """True if mu_r or lambda1 (in 3D also lambda2) is nonzero. In 2D the micro-rotation ω e_z has no
+        divergence, so lambda2 alone has no effect and builds no ω field (it would be an equation with all
+        coefficients zero)."""
         m = self.micropolar
-        return m.mu_r != 0 or m.lambda1 != 0
+        return m.mu_r != 0 or m.lambda1 != 0 or (self.geometry.DIM == 3 and m.lambda2 != 0)
 
     @property
     def has_solid(self) -> bool:

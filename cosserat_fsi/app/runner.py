@@ -46,7 +46,7 @@ def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
     path = on_root(comm, _build_checked, scene, step="mesh")
-    mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
+    mesh, cell_tags, facet_tags = compat.read_msh(path, comm, gdim=geo.DIM)
     return mesh, cell_tags, facet_tags, path
 
 
