@@ -77,7 +77,7 @@ BAD = [
     # the geometry union: one model per geometry, chosen by name
     ("geometry_without_name", BASE.replace("name: turek_hron, ", ""), [], "geometry.name: missing key"),
     ("height_on_square", None, ["geometry.name=square", "geometry.flag=null", "geometry.height=2"],
-     "geometry.height: not used for geometry 'square' (only for channel, flag)"),
+     "geometry.height: not used for geometry 'square' (only for channel, flag, duct)"),
     ("radius_on_channel", None, ["geometry={name: channel, radius: 0.1}"], "geometry.radius: only for geometry box"),
     ("misspelt_geometry_key", None, ["geometry.lenght=2"], "geometry.lenght: unknown key (did you mean 'length'?)"),
     ("box_radius_too_large", None, ["geometry={name: box, radius: 0.5}", "solid={rho: 1, mu_s: 1}"],
