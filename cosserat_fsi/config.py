@@ -84,7 +84,7 @@ class Fluid(_Section):
 
     rho: PositiveFloat
     mu: PositiveFloat
-    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # one per dimension
     viscous_form: Literal["laplacian", "symmetric"] = "laplacian"
 
 
@@ -100,9 +100,29 @@ class Micropolar(_Section):
     lambda1: NonNegFloat = 0.0
     lambda2: NonNegFloat = 0.0
     inertia: NonNegFloat = 0.0
-    body_couple: float = 0.0
+    body_couple: float | Annotated[list[float], Field(min_length=3, max_length=3)] = 0.0  # 3D: vector (a number: g_z)
     wall_condition: Literal["zero", "half_curl"] = "zero"
     nodal_characteristics: bool = False
+
+
+class MeshMotionSettings(_Section):
+    """How the fluid mesh follows the solid (scheme/mesh_motion.py; measured in docs/performance.md).
+
+    ``method``: ``biharmonic`` (default: carries a bent flag furthest), ``elastic`` (linear elasticity) or
+    ``harmonic`` (the seed's stiffened Laplace extension). ``stiffness_exponent`` χ: the operator is
+    weighted by |K|^−χ so that small cells deform less; default the measured best of the method
+    (harmonic 1, elastic 1, biharmonic 0). ``poisson_ratio`` ν of the elastic extension.
+    """
+
+    method: Literal["harmonic", "elastic", "biharmonic"] = "biharmonic"
+    stiffness_exponent: float | None = Field(default=None, ge=0, le=4)
+    poisson_ratio: float = Field(default=0.0, gt=-1, lt=0.5)
+
+    def options(self) -> dict:
+        """Keyword arguments of scheme.mesh_motion.MeshMotion."""
+        exponent = {"harmonic": 1.0, "elastic": 1.0, "biharmonic": 0.0}[self.method]
+        return {"method": self.method, "poisson_ratio": self.poisson_ratio,
+                "stiffness_exponent": exponent if self.stiffness_exponent is None else self.stiffness_exponent}
 
 
 class Solid(_Section):
@@ -116,7 +136,7 @@ class Solid(_Section):
     oscillation). ``volume_correction``: make the next velocity undo the area drift J ≠ 1 that the
     seed's explicit node update x += δt u accumulates (on by default; off is the seed's scheme).
     ``initial_velocity``: uniform initial velocity
-    of the solid (m/s), e.g. to start a free vibration.
+    of the solid (m/s), e.g. to start a free vibration. ``mesh_motion``: see :class:`MeshMotionSettings`.
     """
 
     rho: PositiveFloat
@@ -126,6 +146,7 @@ class Solid(_Section):
     gravity_ramp_time: NonNegFloat = 0.0
     volume_correction: bool = True
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
 
 
 class Inflow(_Section):
@@ -179,7 +200,9 @@ class Time(_Section):
 
 
 class Solver(_Section):
-    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes.
+    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes; or
+    ``type: iterative``: FGMRES to ``krylov_rtol`` with a Schur fieldsplit preconditioner, ``amg`` on the
+    velocity block (scheme/linear_solver.py).
 
     ``reuse_factorization``: when the matrix changes every step (moving mesh), keep the last MUMPS
     factorisation as the preconditioner of a GMRES solve (relative tolerance ``krylov_rtol``) and
@@ -191,6 +214,9 @@ class Solver(_Section):
     reuse_factorization: bool = True
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
     max_krylov_iterations: int = Field(default=12, ge=1, le=10_000)
+    type: Literal["direct", "iterative"] = "direct"
+    amg: Literal["gamg", "hypre"] = "gamg"  # the velocity block's multigrid (iterative); hypre: Debian PETSc only
+    max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
 
 
 def _expression(value: Any) -> Any:
@@ -318,6 +344,16 @@ class Scene(_Section):
             if need_flag is not None and flag != need_flag:
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
         m = self.micropolar
+        dim = geo.DIM
+        if dim == 3 and time.scheme != "steady":
+            raise ValueError(f"time.scheme: the 3D geometry {geo.name} runs with the steady solver for now (the "
+                             f"characteristics back-tracking is 2D only; got {time.scheme})")
+        if self.fluid is not None and len(self.fluid.body_force) != dim and (
+                dim == 2 or "body_force" in self.fluid.model_fields_set):
+            raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.fluid.body_force)})")
+        if dim == 2 and isinstance(m.body_couple, list):
+            raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
         if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
             raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
         if self.benchmark == "micropolar_taylor_green":
@@ -330,10 +366,11 @@ class Scene(_Section):
 
     @property
     def has_micropolar(self) -> bool:
-        """True if mu_r or lambda1 is nonzero. In 2D the micro-rotation ω e_z has no divergence, so lambda2
-        alone has no effect and builds no ω field (it would be an equation with all coefficients zero)."""
+        """True if mu_r or lambda1 (in 3D also lambda2) is nonzero. In 2D the micro-rotation ω e_z has no
+        divergence, so lambda2 alone has no effect and builds no ω field (it would be an equation with all
+        coefficients zero)."""
         m = self.micropolar
-        return m.mu_r != 0 or m.lambda1 != 0
+        return m.mu_r != 0 or m.lambda1 != 0 or (self.geometry.DIM == 3 and m.lambda2 != 0)
 
     @property
     def has_solid(self) -> bool:

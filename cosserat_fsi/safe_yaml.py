@@ -141,6 +141,8 @@ def yaml_load(text: str) -> Any:
 def read_text_file(path: str | Path, what: str = "file", max_bytes: int = MAX_BYTES) -> str:
     """UTF-8 text of a small file; InputError naming it if missing, a folder, too large, binary or not UTF-8."""
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, a device not end
+        raise InputError(f"{path}: not a regular file (not a {what})")
     try:
         with open(path, "rb") as f:
             data = f.read(max_bytes + 1)

@@ -43,7 +43,7 @@ def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
     path = on_root(comm, _build_checked, scene, step="mesh")
-    mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
+    mesh, cell_tags, facet_tags = compat.read_msh(path, comm, gdim=geo.DIM)
     return mesh, cell_tags, facet_tags, path
 
 
@@ -128,6 +128,9 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         if fields is not None and (steady or k % every == 0):
             with sim.timers("output"):
                 _write_fields(fields, sim)
+        if k % every == 0 and getattr(sim.motion, "min_quality", None) is not None:
+            log.info("t = %.6g: minimum cell quality %.4g (lowest so far %.4g)", sim.t, sim.motion.min_quality,
+                     sim.motion.lowest_quality)
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
@@ -306,6 +309,8 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
+        if getattr(sim.motion, "lowest_quality", None) is not None:  # 4√3|K|/Σ|e|², lowest over the run
+            summary["mesh_quality"] = {"final": sim.motion.min_quality, "lowest": sim.motion.lowest_quality}
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))

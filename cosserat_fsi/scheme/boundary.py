@@ -44,7 +44,7 @@ class BoundaryConditions:
             self._named(scene.boundaries, micro)
             return
         inflow = scene.inflow
-        moving_lid = inflow is not None and scene.geometry.name == "square"
+        moving_lid = inflow is not None and scene.geometry.name in ("square", "cube")
         no_slip = problem.no_slip_boundaries()
         self._add("velocity", no_slip + (() if moving_lid else ("lid",)))
         if inflow is not None:
@@ -96,6 +96,7 @@ class BoundaryConditions:
     def _inflow(self, inflow, moving_lid: bool):
         """Parabolic or uniform inflow (or the lid's velocity) × ramp, + ε sin(π t/T) × a tilted profile."""
         x = self.problem.mesh.geometry.x
+        zeros = [np.zeros_like] * (self.problem.mesh.geometry.dim - 1)  # the other velocity components
         ramp_time = inflow.ramp_time
         y0 = self.comm.allreduce(x[:, 1].min(), op=MPI.MIN)
         H = self.comm.allreduce(x[:, 1].max(), op=MPI.MAX) - y0
@@ -104,10 +105,10 @@ class BoundaryConditions:
             y = x[1] - y0
             ux = (6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic"
                   else np.full_like(y, inflow.u_mean))
-            return np.vstack([ux, np.zeros_like(ux)])
+            return np.vstack([ux] + [z(ux) for z in zeros])
 
         def lid(x):
-            return np.vstack([np.full_like(x[0], inflow.u_mean), np.zeros_like(x[0])])
+            return np.vstack([np.full_like(x[0], inflow.u_mean)] + [z(x[0]) for z in zeros])
 
         def tilt(x):  # antisymmetric about mid-height: breaks the symmetry of the start-up
             return profile(x) * (2.0 * (x[1] - y0) / H - 1.0)

@@ -49,6 +49,11 @@ class PointLocator:
         imap = mesh.topology.index_map(tdim)
         self.num_owned = imap.size_local
         n_cells = imap.size_local + imap.num_ghosts
+        if tdim != 2:  # 3D (steady solver only): no back-tracking, no affine-triangle location yet
+            self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
+            self.nodes = self.x0 = self.J = self.Jinv = self.Jinv_flat = None
+            self.quadrature_cache = {}
+            return
         if coordinates is None:
             self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
         else:  # the tree is built from the geometry: lend it the other coordinates meanwhile

@@ -1,10 +1,18 @@
-"""Mesh motion (seed §5.2): solid vertices move with the material, fluid vertices by harmonic extension.
+"""Mesh motion (seed §5.2): solid vertices move with the material, fluid vertices by an extension.
 
-Each step the solid vertices move by δt u^{n+1}. The fluid vertices follow the harmonic extension of the
-solid displacement, zero on the outer boundary. The extension is solved on the *reference* mesh for the
-total displacement (Laplace is linear, so this equals the sum of the seed's incremental extensions with a
-fixed operator): its matrix is assembled and factorised once, and the mesh never drifts. The Laplacian is
-stiffened by 1/|cell| (Jasak–Tuković), so small cells near the body deform less.
+Each step the solid vertices move by δt u^{n+1}. The fluid vertices follow an extension of the solid
+displacement, zero on the outer boundary, solved on the *reference* mesh for the total displacement (the
+operators are linear, so this equals the sum of incremental extensions with a fixed operator): its matrix
+is assembled and factorised once, and the mesh never drifts. Extensions (``solid.mesh_motion.method``):
+
+- ``harmonic`` (the seed's): −div(κ ∇m) = 0 with κ = 1/|K| (Jasak–Tuković), so small cells deform less;
+- ``elastic``: linear elasticity −div(κ (2 ε(m) + λ div m I)) = 0, κ = |K|^−χ (Stein–Tezduyar–Benney
+  Jacobian-based stiffening, χ = ``stiffness_exponent``), λ = 2ν/(1 − 2ν) (ν = ``poisson_ratio``);
+- ``biharmonic``: (K_κ M_L⁻¹ K_κ) m = 0, the mixed biharmonic (w = −div κ∇m, −div κ∇w = 0, Dirichlet data on
+  m only; Wick 2011, turtleFSI) with the lumped P1 mass M_L, which eliminates w: one sparse matrix, wider
+  stencil, factorised once.
+
+``cell_quality(mesh)``: the normalised shape quality 4√3·|K|/Σ|e|² of each cell (1 equilateral, 0 flat).
 
 A mesh motion is pluggable (Simulation._motion chooses it): it offers the P1 vertex space ``M``, the
 reference coordinates ``X0`` and ``node_dof``, the total ``displacement`` and ``velocity`` (P1),
@@ -41,6 +49,7 @@ class _MovingMesh:
         self.node_dof = np.empty(len(mesh.geometry.x), dtype=np.int64)
         self.node_dof[nodes.ravel()] = dofs.ravel()
         self.ref_area = self._areas()
+        self.min_quality = self.lowest_quality = None  # minimum cell quality now / since the start (all ranks)
 
     def state_functions(self) -> dict:
         """The functions a checkpoint must keep, by name (the total displacement and velocity)."""
@@ -52,6 +61,10 @@ class _MovingMesh:
         n = compat.geometry_dofmap(self.mesh)[:, :3]
         e1, e2 = x[n[:, 1]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 0]]
         return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+    def quality(self) -> np.ndarray:
+        """``cell_quality`` of the local cells, negative where a cell is inverted."""
+        return cell_quality(self.mesh, np.sign(self.ref_area))
 
     def _apply(self, new_displacement: np.ndarray, dt: float, t: float):
         """Move to X0 + new_displacement (P1 dof array); DivergenceError (mesh untouched) if a cell would
@@ -80,13 +93,18 @@ class _MovingMesh:
             raise DivergenceError(f"t = {t:.6g}: the mesh motion would make a cell {kind} near "
                                   f"({where[0]:.4g}, {where[1]:.4g}); try a smaller time.dt, "
                                   f"or the deformation is too large for a moving mesh")
+        quality = self.quality()
+        self.min_quality = self.comm.allreduce(float(quality.min()) if len(quality) else np.inf, op=MPI.MIN)
+        self.lowest_quality = min(self.min_quality, np.inf if self.lowest_quality is None else self.lowest_quality)
 
 
 class MeshMotion(_MovingMesh):
     """Solid vertices follow the material (δt u^{n+1} per step), fluid vertices the harmonic extension."""
 
-    def __init__(self, mesh, cell_tags, comm=MPI.COMM_WORLD, stiffening: bool = True):
+    def __init__(self, mesh, cell_tags, comm=MPI.COMM_WORLD, stiffening: bool = True, method: str = "harmonic",
+                 stiffness_exponent: float = 1.0, poisson_ratio: float = 0.0):
         super().__init__(mesh, comm)
+        self.method = method
         M, tdim = self.M, mesh.topology.dim
         self.solid_displacement = dolfinx.fem.Function(M)
         self._u_P1 = dolfinx.fem.Function(M)
@@ -100,17 +118,32 @@ class MeshMotion(_MovingMesh):
         self.bcs = [dolfinx.fem.dirichletbc(self.solid_displacement, self.solid_dofs),
                     dolfinx.fem.dirichletbc(dolfinx.fem.Function(M), outer)]
         m, v = ufl.TrialFunction(M), ufl.TestFunction(M)
-        k = 1.0 / _cell_area(mesh) if stiffening else dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
-        self.a = compat.form(k * ufl.inner(ufl.grad(m), ufl.grad(v)) * ufl.dx)
+        one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
+        if method == "harmonic" and stiffness_exponent == 1.0:
+            k = 1.0 / _cell_area(mesh) if stiffening else one  # the seed's, as it always was
+        else:
+            k = _cell_area(mesh) ** (-stiffness_exponent) if stiffening else one
         zero = dolfinx.fem.Constant(mesh, np.zeros(2, dtype=PETSc.ScalarType))
         self.L = compat.form(ufl.inner(zero, v) * ufl.dx)
-        self.A = fem_petsc.assemble_matrix(self.a, bcs=self.bcs)
-        self.A.assemble()
+        if method == "elastic":
+            lam = 2.0 * poisson_ratio / (1.0 - 2.0 * poisson_ratio)
+            eps = ufl.sym(ufl.grad(m))
+            self.a = compat.form(k * (2.0 * ufl.inner(eps, ufl.sym(ufl.grad(v)))
+                                      + lam * ufl.div(m) * ufl.div(v)) * ufl.dx)
+        else:
+            self.a = compat.form(k * ufl.inner(ufl.grad(m), ufl.grad(v)) * ufl.dx)
         # The lifting must use the reference operator too: fem.apply_lifting would re-assemble `a` on
         # the *moved* mesh, and the mismatch with the factorised matrix grows with the deformation
         # (fluid vertices next to the flag lag behind it and cells invert at ≈ 2 cm of tip motion).
         self.A0 = fem_petsc.assemble_matrix(self.a)
         self.A0.assemble()
+        if method == "biharmonic":
+            self.A0 = self._biharmonic(self.A0, v)
+            self.A = self.A0.duplicate(copy=True)
+            self.A.zeroRowsColumns(self._global_rows([b_dofs for b_dofs in (self.solid_dofs, outer)]), diag=1.0)
+        else:
+            self.A = fem_petsc.assemble_matrix(self.a, bcs=self.bcs)
+            self.A.assemble()
         self.ksp = PETSc.KSP().create(comm)
         self.ksp.setType("preonly")
         self.ksp.getPC().setType("lu")
@@ -122,6 +155,37 @@ class MeshMotion(_MovingMesh):
     def state_functions(self) -> dict:
         return {**super().state_functions(), "solid_displacement": self.solid_displacement}
 
+    def _biharmonic(self, K, v):
+        """K M_L⁻¹ K: the mixed biharmonic operator with the auxiliary field eliminated by the lumped mass."""
+        lumped = fem_petsc.assemble_vector(compat.form(
+            ufl.inner(dolfinx.fem.Constant(self.mesh, np.ones(2, dtype=PETSc.ScalarType)), v) * ufl.dx))
+        lumped.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        lumped.reciprocal()
+        scaled = K.duplicate(copy=True)
+        scaled.diagonalScale(L=lumped)
+        return K.matMult(scaled)
+
+    def _global_rows(self, dof_sets) -> np.ndarray:
+        """Global PETSc rows of the owned entries of the given (local, blocked) P1 dofs."""
+        index_map = self.M.dofmap.index_map
+        dofs = np.unique(np.concatenate(dof_sets))
+        dofs = dofs[dofs < index_map.size_local]
+        blocks = index_map.local_range[0] + dofs
+        return (blocks[:, None] * 2 + np.arange(2)).ravel().astype(PETSc.IntType)
+
+    def extend(self, solid_displacement: np.ndarray) -> np.ndarray:
+        """The extension of a total solid displacement (P1 dof array, only the solid entries are read)
+        to the whole mesh (P1 dof array); the mesh is not moved."""
+        s = self.solid_displacement.x.array
+        s[self._solid_entries] = solid_displacement[self._solid_entries]
+        self.solid_displacement.x.scatter_forward()
+        self.A0.mult(compat.petsc_vec(self.solid_displacement), self.b)  # b = −A0 g, g = 0 off the solid
+        self.b.scale(-1.0)
+        fem_petsc.set_bc(self.b, self.bcs)
+        self.ksp.solve(self.b, compat.petsc_vec(self._new))
+        self._new.x.scatter_forward()
+        return self._new.x.array.copy()
+
     def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base: np.ndarray | None = None):
         """Solid vertices: s^{n+1} = s* + (δt/α) u^{n+1}, as the displacement d, with s* = s^n (first order)
         or the given ``base`` (BDF2: the extrapolated displacement (4D^n − D^{n−1})/3, a P1 dof array);
@@ -131,13 +195,7 @@ class MeshMotion(_MovingMesh):
         s = self.solid_displacement.x.array
         s_star = s[entries] if base is None else base[entries]
         s[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
-        self.solid_displacement.x.scatter_forward()
-        self.A0.mult(compat.petsc_vec(self.solid_displacement), self.b)  # b = −A0 g, g = 0 off the solid
-        self.b.scale(-1.0)
-        fem_petsc.set_bc(self.b, self.bcs)
-        self.ksp.solve(self.b, compat.petsc_vec(self._new))
-        self._new.x.scatter_forward()
-        return self._apply(self._new.x.array.copy(), dt, t)
+        return self._apply(self.extend(s), dt, t)
 
 
 class PrescribedMotion(_MovingMesh):
@@ -155,6 +213,17 @@ class PrescribedMotion(_MovingMesh):
 
     def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base=None):
         return self._apply(np.asarray(self.motion(self._X0_dof, t), dtype=float).ravel(), dt, t)
+
+
+def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
+    """Normalised shape quality 4√3·|K|/Σ|e|² of the local cells (1: equilateral, 0: flat, < 0: inverted
+    relative to ``orientation``, the signs of the reference cells' areas; without it the sign is gmsh's)."""
+    x = mesh.geometry.x[:, :2]
+    n = compat.geometry_dofmap(mesh)[:, :3]
+    e1, e2, e3 = x[n[:, 1]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 1]]
+    area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    quality = 4.0 * np.sqrt(3.0) * area / ((e1 ** 2).sum(1) + (e2 ** 2).sum(1) + (e3 ** 2).sum(1))
+    return quality if orientation is None else quality * orientation
 
 
 def _cell_area(mesh):

@@ -158,6 +158,15 @@ def test_non_utf8_arguments_never_reach_a_traceback(tiny_config, tmp_path, argv)
     assert list(tmp_path.iterdir()) == []
 
 
+def test_config_that_is_a_fifo_does_not_block(main, tmp_path):
+    import os
+
+    fifo = tmp_path / "scene.yaml"
+    os.mkfifo(fifo)
+    code, err = main("run", fifo, "--out", main.out)
+    _one_line(code, err, "not a regular file")
+
+
 # --------------------------------------------------------------- a user's own scene (geometry: file)
 _SQUARE = """Point(1) = {0,0,0,0.25}; Point(2) = {1,0,0,0.25}; Point(3) = {1,1,0,0.25}; Point(4) = {0,1,0,0.25};
 Line(1) = {1,2}; Line(2) = {2,3}; Line(3) = {3,4}; Line(4) = {4,1};
