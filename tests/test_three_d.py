@@ -135,7 +135,8 @@ def test_iterative_solver_agrees_with_mumps(case, amg):
     comm = MPI.COMM_WORLD
     if case == "steady-3d":
         exact = Manufactured3D(**PARAMS)
-        scenes = [_scene(1, solver={"type": kind, "krylov_rtol": 1e-10, "amg": amg}) for kind in ("direct", "iterative")]
+        scenes = [_scene(1, solver={"type": kind, "krylov_rtol": 1e-10, "amg": amg})
+                  for kind in ("direct", "iterative")]
     else:
         exact = None
         scenes = [validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.1},
