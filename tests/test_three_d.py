@@ -96,6 +96,7 @@ def test_spin_is_the_curl_tensor():
     assert _l2(MPI.COMM_WORLD, mesh, diff) < 1e-12
 
 
+@pytest.mark.slow
 def test_manufactured_3d_rates():
     """All micropolar terms active (λ₂ included), convection by the steady Newton solver, levels 0/1/2
     (2, 4, 8 divisions per side). Measured (both stacks, docs/validation.md): ‖u − u_ex‖ 2.72e-2, 7.72e-3,

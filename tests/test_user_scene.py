@@ -136,6 +136,7 @@ def _csv(path):
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
+@pytest.mark.slow
 def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     """A user's .geo (an elastic block clamped to the floor: no-slip 'clamp' and 'walls', parabolic 'inlet',
     the interface found from the cells) runs from the command line on 1 and 2 ranks with the same time
