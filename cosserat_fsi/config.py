@@ -522,9 +522,24 @@ def _apply_override(data: dict, item: str) -> None:
     node[parts[-1]] = value
 
 
+_UNION_MEMBER = re.compile(r"(float|int|str|bool|none|(list|tuple|dict)\[.*\]|function-.*)")
+"""Pydantic names the member of a union (``float | list[float]``) in the location: not a key."""
+
+
+def _without_members(err: dict) -> dict:
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and _UNION_MEMBER.fullmatch(p)))
+    return {**err, "loc": loc}
+
+
 def _one_line(exc: ValidationError, prefix: tuple = ()) -> str:
-    """The first error of ``exc`` (an unknown key first: a misspelt key also shows up as a missing one)."""
-    errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
+    """The first error of ``exc`` (an unknown key first: a misspelt key also shows up as a missing one);
+    the errors of a union's members count once per key."""
+    errors, seen = [], set()
+    for err in sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden"):
+        err = _without_members(err)
+        if err["loc"] not in seen:
+            seen.add(err["loc"])
+            errors.append(err)
     more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
     return _describe({**errors[0], "loc": (*prefix, *errors[0]["loc"])}) + more
 

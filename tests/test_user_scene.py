@@ -160,6 +160,7 @@ def _csv(path):
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
+@pytest.mark.slow
 def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     """A user's .geo (an elastic block clamped to the floor; a boundaries section: no-slip 'clamp' and
     'walls', a ramped parabolic 'inlet' expression; the interface found from the cells) runs from the

@@ -253,7 +253,7 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     return {"facets": facets, "cells": counts}
 
 
-def _line_nodes(gmsh, entity) -> "Any":
+def _line_nodes(gmsh, entity) -> Any:
     import numpy as np
 
     types, _, nodes = gmsh.model.mesh.getElements(1, entity)

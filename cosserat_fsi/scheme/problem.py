@@ -58,8 +58,8 @@ class Problem:
 
     Coefficients (UFL-ready, fixed for the run unless a source is time dependent): ``rho``, ``mu``,
     ``body_force`` (f), ``penalty`` (ζ), ``viscous_form``; with micro-rotation ``mu_r``, ``lambda1``,
-    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s``; the others are None. ρ and f are DG0 fields
-    (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
+    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s``; the others are None. ρ and f
+    are DG0 fields (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
     """
 
     def __init__(self, scene, mesh, cell_tags, facet_tags, space: MixedSpace | None = None, exact=None,

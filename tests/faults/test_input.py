@@ -106,6 +106,8 @@ YAML = {  # scene files the loader must refuse in one line naming the file
     "empty": (b"", "top level must be a mapping of sections (got empty file)"),
     "control_character": (b"name: a\x07b\n", "could not parse YAML"),
     "bad_merge": (b"<<: 3\n", "'<<' needs a mapping"),
+    "recursive_alias": (b"geometry: &a [1, *a]\n", "an alias refers to a value that contains it"),
+    "recursive_merge": (b"a: &a {b: 1, <<: *a}\n", "could not parse YAML"),
 }
 
 
