@@ -97,6 +97,7 @@ def test_spin_is_the_curl_tensor():
     assert _l2(MPI.COMM_WORLD, mesh, diff) < 1e-12
 
 
+@pytest.mark.slow
 def test_manufactured_3d_rates():
     """All micropolar terms active (λ₂ included), convection by the steady Newton solver, levels 0/1/2
     (2, 4, 8 divisions per side). Measured (both stacks, docs/validation.md): ‖u − u_ex‖ 2.72e-2, 7.72e-3,
@@ -136,7 +137,8 @@ def test_iterative_solver_agrees_with_mumps(case, amg):
     comm = MPI.COMM_WORLD
     if case == "steady-3d":
         exact = Manufactured3D(**PARAMS)
-        scenes = [_scene(1, solver={"type": kind, "krylov_rtol": 1e-10, "amg": amg}) for kind in ("direct", "iterative")]
+        scenes = [_scene(1, solver={"type": kind, "krylov_rtol": 1e-10, "amg": amg})
+                  for kind in ("direct", "iterative")]
     else:
         exact = None
         scenes = [validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.1},

@@ -1,9 +1,10 @@
 """Command line: ``cosserat-fsi run|mesh|plot|study|info``.
 
-Bad input (``InputError``, argparse usage errors) prints ``error: <message>`` on one line to stderr and
-exits 2; a diverged run prints ``diverged: <message>`` and exits 3; SIGTERM/SIGINT write a checkpoint,
-print ``interrupted: <message>`` and exit 128 + the signal number. Importing this module imports neither
-dolfinx, petsc4py nor gmsh: they are loaded only by the subcommands that need them.
+Every command ends with one line on stderr at most and an exit code, never a traceback (app/failure.py,
+docs/reliability.md): ``error:`` 2, ``diverged:`` 3, ``interrupted:`` 130/143, ``internal error:`` 1.
+``run`` owns its output folder (io/runfolder.py): parse → validate → check the folder → lock → check
+the checkpoint → set up → commit → write. Importing this module imports neither dolfinx, petsc4py nor
+gmsh: they are loaded only by the subcommands that need them.
 """
 
 from __future__ import annotations

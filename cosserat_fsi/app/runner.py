@@ -1,5 +1,8 @@
 """Run one scene: mesh → simulation → observables → outputs (the CLI contract of `cosserat-fsi run`).
 
+Above 350 lines because the error path around the loop lives here with it: the order of work (check,
+set up, commit, write), the shared end-of-step check, the summary that tells how the run ended.
+
 Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
 summary.json (and run.log through the CLI's logging).
 """

@@ -14,8 +14,9 @@ Tags (cosserat_fsi/tags.py: ``CELL_TAGS`` / ``FACET_TAGS``; each geometry's ``de
 
 cells: fluid 1, solid 2 (turek_hron with flag: solid, flag (all cells), box (the disk)).
 facets: inlet 1 (x = 0), outlet 2 (x = L), walls 3 (y = 0 and y = H; square: left, right, bottom; box: all four
-sides; cube: five sides), cylinder 4 (circle), interface 5 (turek_hron flag boundary off the cylinder; flag: bottom, right, top
-edges, exterior; box: the circle, interior), lid 6 (square and cube top, y = length), clamp 7 (flag: left edge x = 0).
+sides; cube: five sides), cylinder 4 (circle), interface 5 (turek_hron flag boundary off the cylinder; flag:
+bottom, right, top edges, exterior; box: the circle, interior), lid 6 (square and cube top, y = length), clamp 7
+(flag: left edge x = 0).
 """
 
 from __future__ import annotations
