@@ -19,9 +19,11 @@ from collections.abc import Sequence
 
 import yaml
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, ValidationError, ValidationInfo,
+                      field_validator, model_validator)
 
 from cosserat_fsi.errors import InputError
+from cosserat_fsi.expressions import ExpressionError, parse as parse_expression
 from cosserat_fsi.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load  # noqa: F401
 from cosserat_fsi.geometry import GEOMETRIES, MODELS, Geometry, GeometryBase
 
@@ -82,7 +84,7 @@ class Fluid(_Section):
 
     rho: PositiveFloat
     mu: PositiveFloat
-    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # one per dimension
     viscous_form: Literal["laplacian", "symmetric"] = "laplacian"
 
 
@@ -98,7 +100,7 @@ class Micropolar(_Section):
     lambda1: NonNegFloat = 0.0
     lambda2: NonNegFloat = 0.0
     inertia: NonNegFloat = 0.0
-    body_couple: float = 0.0
+    body_couple: float | Annotated[list[float], Field(min_length=3, max_length=3)] = 0.0  # 3D: vector (a number: g_z)
     wall_condition: Literal["zero", "half_curl"] = "zero"
     nodal_characteristics: bool = False
 
@@ -207,7 +209,9 @@ class Time(_Section):
 
 
 class Solver(_Section):
-    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes.
+    """Linear solver: pressure penalty, MUMPS fill-reducing ordering, and LU reuse on moving meshes; or
+    ``type: iterative``: FGMRES to ``krylov_rtol`` with a Schur fieldsplit preconditioner, ``amg`` on the
+    velocity block (scheme/linear_solver.py).
 
     ``reuse_factorization``: when the matrix changes every step (moving mesh), keep the last MUMPS
     factorisation as the preconditioner of a GMRES solve (relative tolerance ``krylov_rtol``) and
@@ -219,6 +223,60 @@ class Solver(_Section):
     reuse_factorization: bool = True
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
     max_krylov_iterations: int = Field(default=12, ge=1, le=10_000)
+    type: Literal["direct", "iterative"] = "direct"
+    amg: Literal["gamg", "hypre"] = "gamg"  # the velocity block's multigrid (iterative); hypre: Debian PETSc only
+    max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
+
+
+def _expression(value: Any) -> Any:
+    """A number or an expression string in the grammar of cosserat_fsi/expressions.py (kept as given)."""
+    try:
+        parse_expression(value)
+    except ExpressionError as exc:
+        raise ValueError(str(exc)) from None
+    return value
+
+
+Expr = Annotated[Any, BeforeValidator(_expression)]
+
+
+class BoundaryCondition(_Section):
+    """The condition on one named facet group of a file scene (``boundaries: {NAME: {...}}``).
+
+    ``type``: ``no_slip`` (u = 0), ``velocity`` (u = ``value``), ``do_nothing`` (the natural condition of
+    the viscous form: μ ∂u/∂n − p n = 0 for ``laplacian``), ``traction`` (that natural condition = ``value``),
+    ``slip`` (u·n = 0 on a straight boundary along x or y). ``value``: [EXPR, EXPR], each a number or a
+    string in x, y, z, t (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp.
+    ``micro_rotation`` (with micropolar terms): ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly) or
+    ``free`` (natural); default: ``micropolar.wall_condition`` on no-slip boundaries, ``free`` elsewhere.
+    """
+
+    type: Literal["no_slip", "velocity", "do_nothing", "traction", "slip"]
+    value: list[Expr] | None = Field(default=None, validate_default=True)
+    micro_rotation: Literal["zero", "half_curl", "free"] | None = None
+
+    @field_validator("value")
+    @classmethod
+    def _value(cls, value: Any, info: ValidationInfo) -> Any:
+        kind = info.data.get("type")
+        if kind in ("velocity", "traction"):
+            if value is None:
+                raise ValueError(f"missing key (type {kind} needs value: [EXPR, EXPR])")
+            if len(value) != 2:
+                raise ValueError(f"must have 2 components, x and y (got {len(value)})")
+        elif value is not None and kind is not None:
+            raise ValueError(f"not used for type {kind} (only velocity and traction take a value)")
+        return value
+
+    def micro(self, wall_condition: str) -> str:
+        """The micro-rotation condition here: given, or the default for this type."""
+        if self.micro_rotation is not None:
+            return self.micro_rotation
+        return wall_condition if self.type == "no_slip" else "free"
+
+    def expressions(self) -> list:
+        """The parsed components of ``value``."""
+        return [parse_expression(v) for v in self.value or ()]
 
 
 class Output(_Section):
@@ -241,6 +299,7 @@ class Scene(_Section):
     micropolar: Micropolar = Field(default_factory=Micropolar)
     solid: Solid | None = None
     inflow: Inflow | None = None
+    boundaries: dict[str, BoundaryCondition] | None = None
     time: Time
     solver: Solver = Field(default_factory=Solver)
     output: Output = Field(default_factory=Output)
@@ -277,6 +336,16 @@ class Scene(_Section):
             hint = ("geometry.flag is solid; use geometry.flag: rigid for a fluid-only run" if flag == "solid"
                     else f"required for geometry {geo.name}")
             raise ValueError(f"solid: missing section ({hint})")
+        if self.boundaries is not None:
+            if geo.name != "file":
+                raise ValueError(f"boundaries: only for geometry file (geometry {geo.name} sets its own)")
+            if self.inflow is not None:
+                raise ValueError("inflow: not used with a boundaries section (give the inlet's velocity as "
+                                 "boundaries.NAME: {type: velocity, value: [EXPR, EXPR]})")
+            for name, bc in self.boundaries.items():
+                if bc.micro_rotation is not None and not self.has_micropolar:
+                    raise ValueError(f"boundaries.{name}.micro_rotation: only with micropolar terms "
+                                     "(micropolar.mu_r or lambda1 > 0)")
         if geo.INFLOW and self.inflow is None:
             raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
         if self.benchmark is not None:
@@ -287,6 +356,16 @@ class Scene(_Section):
             if need_flag is not None and flag != need_flag:
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
         m = self.micropolar
+        dim = geo.DIM
+        if dim == 3 and time.scheme != "steady":
+            raise ValueError(f"time.scheme: the 3D geometry {geo.name} runs with the steady solver for now (the "
+                             f"characteristics back-tracking is 2D only; got {time.scheme})")
+        if self.fluid is not None and len(self.fluid.body_force) != dim and (
+                dim == 2 or "body_force" in self.fluid.model_fields_set):
+            raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.fluid.body_force)})")
+        if dim == 2 and isinstance(m.body_couple, list):
+            raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
         if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
             raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
         if self.benchmark == "micropolar_taylor_green":
@@ -299,10 +378,11 @@ class Scene(_Section):
 
     @property
     def has_micropolar(self) -> bool:
-        """True if mu_r or lambda1 is nonzero. In 2D the micro-rotation ω e_z has no divergence, so lambda2
-        alone has no effect and builds no ω field (it would be an equation with all coefficients zero)."""
+        """True if mu_r or lambda1 (in 3D also lambda2) is nonzero. In 2D the micro-rotation ω e_z has no
+        divergence, so lambda2 alone has no effect and builds no ω field (it would be an equation with all
+        coefficients zero)."""
         m = self.micropolar
-        return m.mu_r != 0 or m.lambda1 != 0
+        return m.mu_r != 0 or m.lambda1 != 0 or (self.geometry.DIM == 3 and m.lambda2 != 0)
 
     @property
     def has_solid(self) -> bool:
@@ -352,6 +432,8 @@ def _unknown_key(parts: Sequence[str]) -> str:
     names = _field_names(parts[:-1])
     close = difflib.get_close_matches(parts[-1], names, n=1)
     hint = f"did you mean {close[0]!r}?" if close else "allowed: " + ", ".join(names)
+    if not names:  # inside a mapping of named sections (boundaries.NAME): no list to offer
+        return f"{'.'.join(parts)}: unknown key"
     return f"{'.'.join(parts)}: unknown key ({hint})"
 
 
@@ -452,9 +534,24 @@ def _apply_override(data: dict, item: str) -> None:
     node[parts[-1]] = value
 
 
+_UNION_MEMBER = re.compile(r"(float|int|str|bool|none|(list|tuple|dict)\[.*\]|function-.*)")
+"""Pydantic names the member of a union (``float | list[float]``) in the location: not a key."""
+
+
+def _without_members(err: dict) -> dict:
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and _UNION_MEMBER.fullmatch(p)))
+    return {**err, "loc": loc}
+
+
 def _one_line(exc: ValidationError, prefix: tuple = ()) -> str:
-    """The first error of ``exc`` (an unknown key first: a misspelt key also shows up as a missing one)."""
-    errors = sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden")
+    """The first error of ``exc`` (an unknown key first: a misspelt key also shows up as a missing one);
+    the errors of a union's members count once per key."""
+    errors, seen = [], set()
+    for err in sorted(exc.errors(include_url=False), key=lambda e: e["type"] != "extra_forbidden"):
+        err = _without_members(err)
+        if err["loc"] not in seen:
+            seen.add(err["loc"])
+            errors.append(err)
     more = f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""
     return _describe({**errors[0], "loc": (*prefix, *errors[0]["loc"])}) + more
 

@@ -110,9 +110,10 @@ def _exact_error_forms(sim) -> dict:
     errors against the scene's exact solution (the exact field interpolated in P4: its own error is
     O(h⁵), far below the P2 solution's O(h³))."""
     mesh, exact = sim.mesh, sim.exact
-    pairs = [("velocity", sim.velocity, (2,), exact.velocity)]
+    gdim = mesh.geometry.dim
+    pairs = [("velocity", sim.velocity, (gdim,), exact.velocity)]
     if sim.model.micro_rotation:
-        pairs.append(("micro_rotation", sim.micro_rotation, None, exact.micro_rotation))
+        pairs.append(("micro_rotation", sim.micro_rotation, (3,) if gdim == 3 else None, exact.micro_rotation))
     out = {}
     for name, numerical, shape, formula in pairs:
         field = dolfinx.fem.Function(compat.function_space(mesh, "Lagrange", 4, shape=shape))

@@ -112,6 +112,7 @@ def _check_size(root) -> None:
     """Refuse a node graph whose alias-expanded size exceeds MAX_NODES (each shared node counted once per
     use, computed once per node)."""
     sizes: dict[int, int] = {}
+    path: set[int] = set()  # nodes being sized: met again below themselves = an alias to an ancestor
     stack = [(root, False)]
     while stack:
         node, done = stack.pop()
@@ -120,10 +121,14 @@ def _check_size(root) -> None:
         children = ([c for pair in node.value for c in pair] if isinstance(node, yaml.MappingNode)
                     else node.value if isinstance(node, yaml.SequenceNode) else [])
         if done:
+            path.discard(id(node))
             sizes[id(node)] = 1 + sum(sizes[id(c)] for c in children)
             if sizes[id(node)] > MAX_NODES:
                 raise YamlLimitError(f"more than {MAX_NODES} values (after expanding aliases)", node.start_mark)
         else:
+            if id(node) in path:
+                raise YamlLimitError("an alias refers to a value that contains it (recursive)", node.start_mark)
+            path.add(id(node))
             stack.append((node, True))
             stack.extend((c, False) for c in children if id(c) not in sizes)
 
@@ -141,6 +146,8 @@ def yaml_load(text: str) -> Any:
 def read_text_file(path: str | Path, what: str = "file", max_bytes: int = MAX_BYTES) -> str:
     """UTF-8 text of a small file; InputError naming it if missing, a folder, too large, binary or not UTF-8."""
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, a device not end
+        raise InputError(f"{path}: not a regular file (not a {what})")
     try:
         with open(path, "rb") as f:
             data = f.read(max_bytes + 1)

@@ -67,7 +67,8 @@ class Simulation:
             return steady_stepper(self.problem, self.state, boundary, self.motion, self.timers, comm)
         histories = Histories(scene, self.problem, float(scene.time.dt), comm, moving=self.motion is not None)
         solver = LinearSolver(scene.solver, comm,
-                              reuse_factorization=self.motion is not None and scene.solver.reuse_factorization)
+                              reuse_factorization=self.motion is not None and scene.solver.reuse_factorization,
+                              problem=self.problem)
         return Stepper(self.problem, self.state, boundary, histories, solver, self.motion, self.timers, comm)
 
     def _motion(self, prescribed_motion):

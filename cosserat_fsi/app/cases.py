@@ -13,8 +13,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import threading
 from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -89,9 +91,36 @@ def run_case(case: Case, python: str | None = None, cwd: Path | None = None) -> 
         cmd = mpi_launcher(case.ranks) + cmd
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     with open(case.out / "stdout.log", "w") as log:
-        proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=cwd, env=env, check=False)
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=cwd, env=env)
+        with _LOCK:
+            _RUNNING.add(proc)
+        try:
+            proc.wait()
+        finally:
+            with _LOCK:
+                _RUNNING.discard(proc)
     (case.out / "exit_code").write_text(f"{proc.returncode}\n")
     return case.out
+
+
+_RUNNING: set[subprocess.Popen] = set()
+_LOCK = threading.Lock()
+
+
+def _stop_running(grace: float = 120.0) -> None:
+    """SIGTERM to every running case (each writes a checkpoint and stops), SIGKILL after ``grace`` s."""
+    with _LOCK:
+        running = list(_RUNNING)
+    for proc in running:
+        try:
+            proc.send_signal(signal.SIGTERM)
+        except OSError:
+            pass
+    for proc in running:
+        try:
+            proc.wait(timeout=grace)
+        except subprocess.TimeoutExpired:
+            proc.kill()
 
 
 def run_cases(cases: Iterable[Case], jobs: int = 1, python: str | None = None, cwd: Path | None = None,
@@ -103,5 +132,12 @@ def run_cases(cases: Iterable[Case], jobs: int = 1, python: str | None = None, c
             report(folder)
         return folder
 
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+    pool = ThreadPoolExecutor(max_workers=max(1, jobs))
+    try:
         return list(pool.map(one, list(cases)))
+    except BaseException:  # Ctrl-C, SIGTERM: the running cases stop too (with a checkpoint), no orphans
+        pool.shutdown(wait=False, cancel_futures=True)
+        _stop_running()
+        raise
+    finally:
+        pool.shutdown(wait=True)

@@ -1,14 +1,16 @@
 """Command line: ``cosserat-fsi run|mesh|plot|study|info``.
 
-Bad input (``InputError``, argparse usage errors) prints ``error: <message>`` on one line to stderr and
-exits 2; a diverged run prints ``diverged: <message>`` and exits 3; SIGTERM/SIGINT write a checkpoint,
-print ``interrupted: <message>`` and exit 128 + the signal number. Importing this module imports neither
-dolfinx, petsc4py nor gmsh: they are loaded only by the subcommands that need them.
+Every command ends with one line on stderr at most and an exit code, never a traceback (app/failure.py,
+docs/reliability.md): ``error:`` 2, ``diverged:`` 3, ``interrupted:`` 130/143, ``internal error:`` 1.
+``run`` owns its output folder (io/runfolder.py): parse → validate → check the folder → lock → check
+the checkpoint → set up → commit → write. Importing this module imports neither dolfinx, petsc4py nor
+gmsh: they are loaded only by the subcommands that need them.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import json
 import math
 import logging
@@ -68,21 +70,49 @@ def _validate_run(args):
     return scene, out, mode
 
 
-def _cmd_run(args, context) -> int:
-    from mpi4py import MPI
+class _OneRank:
+    """COMM_WORLD of a process not started by an MPI launcher, before mpi4py is imported (its import and
+    MPI_Init cost most of a refused run's second)."""
 
+    rank, size = 0, 1
+
+
+def _world():
+    """MPI.COMM_WORLD when started by a launcher (or mpi4py is loaded), else a one-rank stand-in."""
+    launched = any(v in os.environ for v in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "PMI_RANK"))
+    if launched or "mpi4py.MPI" in sys.modules:
+        from mpi4py import MPI
+
+        return MPI.COMM_WORLD
+    return _OneRank()
+
+
+def _check_restart(scene, out: Path) -> None:
+    """Rank 0: the checkpoint and the folder can be continued (all but the column names)."""
+    from cosserat_fsi.io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint
+
+    meta, _ = read_checkpoint(out, None, scene_fingerprint(scene))
+    check_restart_files(out, meta, scene.time.t_end, None, scene.output.fields)
+
+
+def _cmd_run(args, context) -> int:
     from cosserat_fsi.io.runfolder import RunFolder
     from cosserat_fsi.parallel import agree, on_root
 
-    comm = MPI.COMM_WORLD
+    comm = _world()
     scene, out, mode = agree(comm, _validate_run, args)
     folder = RunFolder(out) if comm.rank == 0 else None
     run_log = RunLog(comm)
     try:
         on_root(comm, folder.acquire if folder else None, mode, step="lock")
+        if mode == "restart":  # cheap checks of every file before the heavy imports (again, fully, in run_scene)
+            on_root(comm, _check_restart, scene, out)
         log.info("cosserat-fsi %s: scene %s -> %s (%d rank%s)",
                  __version__, scene.name, out, comm.size, "" if comm.size == 1 else "s")
         from cosserat_fsi.app.runner import run_scene  # heavy: dolfinx, PETSc
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
 
         try:
             import gmsh  # noqa: F401  (gmsh 4.8 resets SIGINT/SIGTERM when imported: import it now...)

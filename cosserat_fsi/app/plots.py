@@ -205,7 +205,11 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None, times: Sequence
         raise InputError(f"RUN_DIR: {run_dir} is not a folder")
     if not (run_dir / "timeseries.csv").exists():
         raise InputError(f"RUN_DIR: {run_dir} has no timeseries.csv (not a cosserat-fsi run folder?)")
-    if (run_dir / "fields.h5").exists() != (run_dir / "fields.xdmf").exists():
+    from ..io.runfolder import folder_in_use
+
+    running = folder_in_use(run_dir) is not None
+    fields = (run_dir / "fields.h5").exists() and (run_dir / "fields.xdmf").exists()
+    if (run_dir / "fields.h5").exists() != (run_dir / "fields.xdmf").exists() and not running:
         missing = "fields.xdmf" if (run_dir / "fields.h5").exists() else "fields.h5"
         raise InputError(f"{run_dir / missing} is missing (fields.h5 and fields.xdmf go together)")
     out = Path(out) if out else run_dir / "plots"
@@ -213,4 +217,5 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None, times: Sequence
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"--out: cannot write to {out} ({exc.strerror or exc})") from None
-    return plot_timeseries(run_dir, out) + plot_snapshots(run_dir, out, times)
+    # a run that has just started has fields.h5 but no fields.xdmf yet: its time series only
+    return plot_timeseries(run_dir, out) + (plot_snapshots(run_dir, out, times) if fields else [])

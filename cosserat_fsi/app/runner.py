@@ -1,5 +1,8 @@
 """Run one scene: mesh → simulation → observables → outputs (the CLI contract of `cosserat-fsi run`).
 
+Above 350 lines because the error path around the loop lives here with it: the order of work (check,
+set up, commit, write), the shared end-of-step check, the summary that tells how the run ended.
+
 Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
 summary.json (and run.log through the CLI's logging).
 """
@@ -43,7 +46,7 @@ def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
     """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
     geo = scene.geometry
     path = on_root(comm, _build_checked, scene, step="mesh")
-    mesh, cell_tags, facet_tags = compat.read_msh(path, comm)
+    mesh, cell_tags, facet_tags = compat.read_msh(path, comm, gdim=geo.DIM)
     return mesh, cell_tags, facet_tags, path
 
 

@@ -23,6 +23,7 @@ reference, wall time, time per step, the per-phase times and the peak memory, an
 from __future__ import annotations
 
 import itertools
+import math
 import json
 from pathlib import Path
 from typing import Any
@@ -63,6 +64,10 @@ def load_study(path: str | Path) -> Study:
         raise InputError(f"{path}: {where}: {' '.join(err['msg'].lower().split())[:200]}") from None
     if not _config_path(study, path).exists():
         raise InputError(f"{path}: config: {study.config} not found")
+    for where, value in [*(("base." + k, v) for k, v in study.base.items()),
+                         *((f"ladder.{k}", v) for k, vs in study.ladder.items() for v in vs)]:
+        if isinstance(value, float) and not math.isfinite(value):
+            raise InputError(f"{path}: {where}: must be a finite number (got {value!r})")
     runs = 1
     for key, values in study.ladder.items():
         if not values:

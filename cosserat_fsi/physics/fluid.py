@@ -55,17 +55,21 @@ def continuity_residual(u, p, q, *, penalty, dx) -> ufl.Form:
 
 
 def micro_rotation_residual(u, omega, tau, *, rho, inertia, acceleration, mu_r, lambda1, body_couple, dx,
-                            dx_inertia=None) -> ufl.Form:
+                            dx_inertia=None, lambda2=None) -> ufl.Form:
     """Seed eq. (32), tested with τ̃ = ``tau`` (``acceleration``: the material derivative of ω):
 
-    ∫ ρ I a_ω·τ̃ + λ₁ ∇ω:∇τ̃ + 4μ_r ω·τ̃ − 2μ_r (curl u)·τ̃ − g·τ̃.
+    ∫ ρ I a_ω·τ̃ + λ₁ ∇ω:∇τ̃ + λ₂ div ω div τ̃ + 4μ_r ω·τ̃ − 2μ_r (curl u)·τ̃ − g·τ̃.
 
-    In 2D ω = ω e_z has zero divergence, so the λ₂ term of eq. (32) vanishes (it is not written).
+    In 3D ω is a vector and all terms are vector equations. In 2D ω = ω e_z has zero divergence, so the λ₂
+    term vanishes and is not written (``lambda2`` is ignored for a scalar ω).
     """
     dx_inertia = dx if dx_inertia is None else dx_inertia
-    return ((lambda1 * ufl.inner(ufl.grad(omega), ufl.grad(tau))
-             + 4 * mu_r * ufl.inner(omega, tau)
-             - 2 * mu_r * ufl.inner(curl(u), tau)) * dx
+    internal = (lambda1 * ufl.inner(ufl.grad(omega), ufl.grad(tau))
+                + 4 * mu_r * ufl.inner(omega, tau)
+                - 2 * mu_r * ufl.inner(curl(u), tau))
+    if lambda2 is not None and ufl.shape(omega) != ():
+        internal = internal + lambda2 * ufl.div(omega) * ufl.div(tau)
+    return (internal * dx
             + rho * inertia * ufl.inner(acceleration, tau) * dx_inertia
             - ufl.inner(body_couple, tau) * dx)
 
@@ -94,5 +98,9 @@ def half_curl_wall(u, omega, tau, *, lambda1, ds, mesh, gamma=10.0) -> ufl.Form:
     """
     n, h = ufl.FacetNormal(mesh), ufl.CellDiameter(mesh)
     jump = omega - 0.5 * curl(u)
+    if ufl.shape(omega) != ():  # 3D: the same terms for the vector ω
+        return (-lambda1 * ufl.inner(ufl.dot(ufl.grad(omega), n), tau)
+                + lambda1 * ufl.inner(ufl.dot(ufl.grad(tau), n), jump)
+                + gamma * lambda1 / h * ufl.inner(jump, tau)) * ds
     return (-lambda1 * ufl.dot(ufl.grad(omega), n) * tau + lambda1 * ufl.dot(ufl.grad(tau), n) * jump
             + gamma * lambda1 / h * jump * tau) * ds

@@ -1,4 +1,4 @@
-"""Kinematic operators of the seed (2D; the micro-rotation is the scalar ω = ω e_z).
+"""Kinematic operators of the seed: 2D (the micro-rotation is the scalar ω = ω e_z) and 3D (ω a vector).
 
 Seed eq. (18): Du = ∇u + ∇uᵀ (no factor ½). In UFL ``grad(u)[i, j] = ∂u_i/∂x_j``.
 """
@@ -32,5 +32,9 @@ def curl(f):
 
 
 def spin(omega):
-    """The tensor [[0, ω], [−ω, 0]] (= −ε·ω of seed eq. 20 in 2D)."""
-    return ufl.as_matrix(((0, omega), (-omega, 0)))
+    """The skew tensor W_ij = ε_ijk ω_k of seed eq. (20) (div W = curl ω): [[0, ω], [−ω, 0]] in 2D (ω = ω e_z),
+    [[0, ω₃, −ω₂], [−ω₃, 0, ω₁], [ω₂, −ω₁, 0]] in 3D."""
+    if ufl.shape(omega) == ():
+        return ufl.as_matrix(((0, omega), (-omega, 0)))
+    w1, w2, w3 = omega[0], omega[1], omega[2]
+    return ufl.as_matrix(((0, w3, -w2), (-w3, 0, w1), (w2, -w1, 0)))

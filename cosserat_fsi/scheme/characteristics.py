@@ -49,6 +49,11 @@ class PointLocator:
         imap = mesh.topology.index_map(tdim)
         self.num_owned = imap.size_local
         n_cells = imap.size_local + imap.num_ghosts
+        if tdim != 2:  # 3D (steady solver only): no back-tracking, no affine-triangle location yet
+            self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
+            self.nodes = self.x0 = self.J = self.Jinv = self.Jinv_flat = None
+            self.quadrature_cache = {}
+            return
         if coordinates is None:
             self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
         else:  # the tree is built from the geometry: lend it the other coordinates meanwhile
@@ -265,6 +270,12 @@ def _evaluate_anywhere(locator, functions, pts, comm, hint=None):
     lost = np.flatnonzero(~found)
     found[lost] = _remote_evaluate(locator, functions, pts[lost], values, lost, comm)
     return values, found
+
+
+def values_anywhere(locator: PointLocator, functions, points: np.ndarray, comm=MPI.COMM_WORLD):
+    """Values of ``functions`` at ``points`` (n, 3) that may lie on any rank's cells; (list of (n, size)
+    arrays, found mask). Collective."""
+    return _evaluate_anywhere(locator, functions, points, comm)
 
 
 def _value_count(f):

@@ -1,33 +1,79 @@
-"""The linear solver of the monolithic system: MUMPS LU, or the last LU as a GMRES preconditioner.
+"""The linear solver of the monolithic system: MUMPS LU, the last LU as a GMRES preconditioner, or an
+iterative block preconditioner (``solver.type: iterative``).
 
 On a fixed mesh the matrix is constant (per BDF coefficient), so one factorisation serves every step
 (``preonly``). On a moving mesh, with ``solver.reuse_factorization``, GMRES is preconditioned by the last
 factorisation and the matrix is refactorised only when GMRES does not converge within
 ``solver.max_krylov_iterations``. :meth:`LinearSolver.solve` may be called again with the same operator
-(corrector passes) and reuses the factorisation. An iterative fieldsplit solver would be another
-``kind`` behind the same three methods.
+(corrector passes) and reuses the factorisation.
+
+``solver.type: iterative``: FGMRES (relative tolerance ``solver.krylov_rtol`` on the unpreconditioned
+residual, at most ``solver.max_iterations``) preconditioned by a PETSc fieldsplit Schur complement
+factorisation (full) of the saddle point [[K, Bᵀ], [B, −ζM]]: the velocity (and micro-rotation) block K by one
+algebraic multigrid cycle (``solver.amg``: GAMG, in both PETSc builds, or hypre BoomerAMG, Debian's only), the
+Schur complement by the pressure mass matrix scaled by −1/(μ + μ_r) (spectrally equivalent to −B K⁻¹ Bᵀ for
+Stokes-like K), with Jacobi. It needs no factorisation: its memory grows linearly with the dofs.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..errors import DivergenceError
+
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
+
+
+def _index_set(space, names, comm) -> PETSc.IS:
+    """The global (PETSc) indices of the owned dofs of the sub-spaces ``names`` of the mixed space."""
+    imap = space.W.dofmap.index_map
+    bs = space.W.dofmap.index_map_bs
+    owned = imap.size_local * bs
+    local = np.concatenate([np.asarray(space.dofs(name)).ravel() for name in names])
+    local = np.sort(local[local < owned])
+    return PETSc.IS().createGeneral((local + imap.local_range[0] * bs).astype(PETSc.IntType), comm=comm)
+
+
+def pressure_schur_matrix(problem) -> PETSc.Mat:
+    """−1/(μ + μ_r) (p, p̃) on the mixed space (zero outside the pressure block), assembled: the Schur
+    complement's preconditioning matrix (the fieldsplit takes its pressure block)."""
+    import dolfinx.fem.petsc as fem_petsc
+    import ufl
+
+    from .. import compat
+
+    W = problem.space.W
+    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
+    viscosity = problem.mu + problem.mu_r if problem.mu_r is not None else problem.mu
+    M = fem_petsc.assemble_matrix(compat.form(-p * q / viscosity * ufl.dx(domain=problem.mesh)))
+    M.assemble()
+    return M
 
 
 class LinearSolver:
     """``set_operator(A)`` after (re)assembly, ``solve(b, x)``; counts ``factorisations`` and
     ``krylov_iterations`` (GMRES reuse only) and exposes the PETSc ``ksp``."""
 
-    def __init__(self, solver_config, comm=MPI.COMM_WORLD, reuse_factorization: bool = False):
+    def __init__(self, solver_config, comm=MPI.COMM_WORLD, reuse_factorization: bool = False, problem=None):
+        """``problem``: the scheme's Problem (its mixed space and viscosities); needed by ``type: iterative``."""
         self.config, self.comm = solver_config, comm
-        self.reuse = reuse_factorization
+        self.iterative = getattr(solver_config, "type", "direct") == "iterative"
+        self.reuse = reuse_factorization and not self.iterative
         self.factorisations = 0
         self.krylov_iterations = 0
         self.A = None
         self._configured = False
         ksp = self.ksp = PETSc.KSP().create(comm)
+        if self.iterative:
+            if problem is None:
+                raise ValueError("solver.type: iterative needs the problem (its fields)")
+            self.problem = problem
+            ksp.setType("fgmres")
+            ksp.setTolerances(rtol=solver_config.krylov_rtol, atol=1e-50, max_it=solver_config.max_iterations)
+            ksp.setGMRESRestart(200)
+            return
         ksp.setType("preonly")
         pc = ksp.getPC()
         pc.setType("lu")
@@ -46,8 +92,37 @@ class LinearSolver:
         self.A = A
         self.ksp.setOperators(A)
         if not self._configured:
-            self._mumps_options()
+            if self.iterative:
+                self._fieldsplit()
+            else:
+                self._mumps_options()
             self._configured = True
+
+    def _fieldsplit(self):
+        """Schur-complement fieldsplit: AMG on the velocity (and micro-rotation) block, the scaled pressure
+        mass matrix with Jacobi on the Schur complement (module docstring)."""
+        problem, comm, ksp = self.problem, self.comm, self.ksp
+        names = problem.space.names
+        primal = _index_set(problem.space, [n for n in names if n != "pressure"], comm)
+        pressure = _index_set(problem.space, ["pressure"], comm)
+        self._mass = pressure_schur_matrix(problem)
+        self._schur_pre = self._mass.createSubMatrix(pressure, pressure)
+        pc = ksp.getPC()
+        pc.setType("fieldsplit")
+        pc.setFieldSplitIS(("primal", primal), ("pressure", pressure))
+        pc.setFieldSplitType(PETSc.PC.CompositeType.SCHUR)
+        pc.setFieldSplitSchurFactType(PETSc.PC.SchurFactType.FULL)
+        pc.setFieldSplitSchurPreType(PETSc.PC.SchurPreType.USER, self._schur_pre)
+        ksp.setUp()
+        primal_ksp, schur_ksp = pc.getFieldSplitSubKSP()
+        primal_ksp.setType("preonly")
+        amg = primal_ksp.getPC()
+        amg.setType(self.config.amg)
+        if self.config.amg == "hypre":
+            amg.setHYPREType("boomeramg")
+        schur_ksp.setType("preonly")
+        schur_ksp.getPC().setType("jacobi")
+        self._index_sets = (primal, pressure)
 
     def _mumps_options(self):
         """MUMPS controls, set on the factor matrix (no options database, nothing left unused)."""
@@ -66,6 +141,12 @@ class LinearSolver:
         """x = A⁻¹ b; with reuse, refactorise when GMRES does not converge in time."""
         ksp = self.ksp
         ksp.solve(b, x)
+        if self.iterative:
+            self.krylov_iterations += ksp.getIterationNumber()
+            if ksp.getConvergedReason() <= 0:
+                raise DivergenceError(f"solver.type iterative: FGMRES did not converge in {ksp.getIterationNumber()} "
+                                      f"iterations (reason {ksp.getConvergedReason()}); try solver.type: direct")
+            return
         if not self.reuse:
             return
         self.krylov_iterations += ksp.getIterationNumber()

@@ -48,8 +48,11 @@ class Newton:
 
     def __init__(self, residual, state, bcs, comm, *, compiled=None, jacobian=None, max_iterations: int = 25,
                  rtol: float = 1e-10, atol: float = 1e-300, max_halvings: int = 8, name: str = "newton",
-                 line_search: bool = False, stol: float = 1e-10):
+                 line_search: bool = False, stol: float = 1e-10, linear_solver=None):
+        """``linear_solver``: a :class:`~.linear_solver.LinearSolver` for the linear steps (e.g. the
+        iterative one); default MUMPS on a KSP of its own."""
         self.state, self.bcs, self.comm, self.name = state, bcs, comm, name
+        self.linear_solver = linear_solver
         self.F = compiled if compiled is not None else compat.form(residual)
         self.J = compat.form(jacobian if jacobian is not None else ufl.derivative(residual, state))
         self.max_iterations, self.rtol, self.atol, self.max_halvings = max_iterations, rtol, atol, max_halvings
@@ -86,6 +89,9 @@ class Newton:
         self.A.zeroEntries()
         fem_petsc.assemble_matrix(self.A, self.J, bcs=self.bcs)
         self.A.assemble()
+        if self.linear_solver is not None:
+            self.linear_solver.set_operator(self.A)
+            return
         self.ksp.setOperators(self.A)
         if not self._mumps:
             pc = self.ksp.getPC()
@@ -128,7 +134,10 @@ class Newton:
                 report.message = f"no convergence in {self.max_iterations} iterations"
                 break
             self._jacobian()  # self.b holds F at the current state
-            self.ksp.solve(self.b, self.delta)
+            if self.linear_solver is not None:
+                self.linear_solver.solve(self.b, self.delta)
+            else:
+                self.ksp.solve(self.b, self.delta)
             self.x.copy(x0)
             step, trial = 1.0, np.inf
             for k in range(self.max_halvings + 1):

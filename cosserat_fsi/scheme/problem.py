@@ -58,15 +58,16 @@ class Problem:
 
     Coefficients (UFL-ready, fixed for the run unless a source is time dependent): ``rho``, ``mu``,
     ``body_force`` (f), ``penalty`` (ζ), ``viscous_form``; with micro-rotation ``mu_r``, ``lambda1``,
-    ``inertia`` (I), ``body_couple`` (g); with a solid ``mu_s``; the others are None. ρ and f are DG0 fields
-    (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
+    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s``; the others are None. ρ and f
+    are DG0 fields (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
     """
 
     def __init__(self, scene, mesh, cell_tags, facet_tags, space: MixedSpace | None = None, exact=None,
                  facet_ids: dict[str, int] | None = None):
         """``exact``: optional manufactured solution; its ``body_force(x, t)`` / ``body_couple(x, t)``,
-        when present, replace f and g. ``facet_ids``: facet name -> tag of this mesh (default: the project's
-        table, tags.FACET_TAGS; a file scene has its own, geometry.facet_ids)."""
+        when present, replace f and g (or its ``sources(X)``: {"body_force": f, "body_couple": g} as UFL
+        expressions of the spatial coordinate X, time independent). ``facet_ids``: facet name -> tag of this
+        mesh (default: the project's table, tags.FACET_TAGS; a file scene has its own, geometry.facet_ids)."""
         self.scene, self.mesh = scene, mesh
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
         self.facet_ids = dict(facet_ids) if facet_ids is not None else dict(FACET_TAGS)
@@ -80,6 +81,7 @@ class Problem:
             self.solid_velocity_dofs = dolfinx.fem.locate_dofs_topological(
                 self.space.space("velocity"), mesh.topology.dim, solid_cells)
         self._source_updates: list[Callable[[float], None]] = []
+        self.time = self.constant(0.0)  # t in the expressions of a boundaries section (update_sources)
         self._coefficients(exact)
 
     # ------------------------------------------------------------------------------ coefficients
@@ -105,13 +107,18 @@ class Problem:
         s, model = self.scene, self.model
         rho_f = s.fluid.rho if s.fluid is not None else 0.0
         self.mu = self.constant(s.fluid.mu if s.fluid is not None else 0.0)
-        body = np.asarray(s.fluid.body_force if s.fluid is not None else (0.0, 0.0), dtype=PETSc.ScalarType)
+        gdim = self.mesh.geometry.dim
+        body = np.zeros(gdim, dtype=PETSc.ScalarType)  # config checks the length (3D: default [0, 0] → f = 0)
+        if s.fluid is not None:
+            body[:len(s.fluid.body_force)] = s.fluid.body_force
         self.mu_s = None
         if model.solid:
             self.rho = self.cellwise(rho_f, s.solid.rho)
-            self.body_force = self.cellwise(body, (0.0, -s.solid.rho * s.solid.gravity), shape=(2,))
+            gravity = np.zeros(gdim)
+            gravity[1] = -s.solid.rho * s.solid.gravity  # along −y in 2D and 3D
+            self.body_force = self.cellwise(body, gravity, shape=(gdim,))
             if s.solid.gravity and s.solid.gravity_ramp_time > 0:
-                fluid_part = self.cellwise(body, (0.0, 0.0), shape=(2,)).x.array.copy()
+                fluid_part = self.cellwise(body, np.zeros(gdim), shape=(gdim,)).x.array.copy()
                 full = self.body_force.x.array.copy()
                 ramp_time, values = s.solid.gravity_ramp_time, self.body_force.x.array
 
@@ -125,14 +132,23 @@ class Problem:
             self.body_force = dolfinx.fem.Constant(self.mesh, body)
         self.viscous_form = s.fluid.viscous_form if s.fluid is not None else "laplacian"
         self.penalty = self.constant(s.solver.penalty)
-        self.mu_r = self.lambda1 = self.inertia = self.body_couple = None
+        self.mu_r = self.lambda1 = self.lambda2 = self.inertia = self.body_couple = None
         if model.micro_rotation:
             m = s.micropolar
             self.mu_r = self.constant(m.mu_r)
             self.lambda1 = self.constant(m.lambda1)
             self.inertia = self.constant(m.inertia)
-            self.body_couple = self.constant(m.body_couple)
-        if exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
+            if gdim == 3:  # ω is a vector: λ₂ acts, the body couple has three components
+                self.lambda2 = self.constant(m.lambda2)
+                couple = m.body_couple if isinstance(m.body_couple, list) else [0.0, 0.0, m.body_couple]
+                self.body_couple = dolfinx.fem.Constant(self.mesh, np.asarray(couple, dtype=PETSc.ScalarType))
+            else:
+                self.body_couple = self.constant(m.body_couple)
+        sources = getattr(exact, "sources", None)
+        if sources is not None:  # steady manufactured solutions: f and g as UFL expressions of x
+            for name, expression in sources(ufl.SpatialCoordinate(self.mesh)).items():
+                setattr(self, name, expression)
+        elif exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
             for name, space in (("body_force", "velocity"), ("body_couple", "micro_rotation")):
                 source = getattr(exact, name, None)
                 if source is None or (space == "micro_rotation" and not model.micro_rotation):
@@ -144,6 +160,7 @@ class Problem:
 
     def update_sources(self, t: float) -> None:
         """Set the time-dependent coefficients (gravity ramp, manufactured sources) to time ``t``."""
+        self.time.value = t
         for update in self._source_updates:
             update(t)
 
@@ -158,14 +175,42 @@ class Problem:
         return [self.facet_ids[n] for n in names if n in self.facet_ids]
 
     def no_slip_boundaries(self) -> tuple:
-        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free)."""
+        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free); with a
+        ``boundaries`` section: the names of type no_slip."""
+        if self.scene.boundaries is not None:
+            return tuple(name for name, bc in self.scene.boundaries.items() if bc.type == "no_slip")
         return ("walls", "cylinder", "clamp") + (() if self.model.solid else ("interface",))
 
+    def micro_rotation_boundaries(self, condition: str) -> tuple:
+        """With a ``boundaries`` section: the names whose micro-rotation condition is ``condition``."""
+        wall = self.scene.micropolar.wall_condition
+        return tuple(name for name, bc in (self.scene.boundaries or {}).items() if bc.micro(wall) == condition)
+
     def half_curl_walls(self) -> tuple:
-        """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl)."""
-        if not self.model.micro_rotation or self.scene.micropolar.wall_condition != "half_curl":
+        """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl, or per
+        boundary in a ``boundaries`` section)."""
+        if not self.model.micro_rotation:
+            return ()
+        if self.scene.boundaries is not None:
+            return self.micro_rotation_boundaries("half_curl")
+        if self.scene.micropolar.wall_condition != "half_curl":
             return ()
         return self.no_slip_boundaries() + ("lid",)
+
+    def traction(self, v) -> ufl.Form | None:
+        """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t), or
+        None."""
+        named = [(name, bc) for name, bc in (self.scene.boundaries or {}).items() if bc.type == "traction"]
+        if not named:
+            return None
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
+        x = ufl.SpatialCoordinate(self.mesh)
+        form = None
+        for name, bc in named:
+            g = ufl.as_vector([e.to_ufl(x, self.time) for e in bc.expressions()])
+            term = -ufl.inner(g, v) * ds(self.facet_ids[name])
+            form = term if form is None else form + term
+        return form
 
     # ------------------------------------------------------------------------------------ forms
     def split(self, w) -> tuple:
@@ -189,11 +234,14 @@ class Problem:
                                     body_force=self.body_force, dx=dx, viscous_form=self.viscous_form,
                                     dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r)
         F = F + fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=dx)
+        traction = self.traction(v)
+        if traction is not None:
+            F = F + traction
         if self.model.micro_rotation:
             F = F + fluid.micro_rotation_residual(u, omega, tau, rho=self.rho, inertia=self.inertia,
                                                   acceleration=micro_acceleration, mu_r=self.mu_r,
                                                   lambda1=self.lambda1, body_couple=self.body_couple, dx=dx,
-                                                  dx_inertia=dx_inertia)
+                                                  dx_inertia=dx_inertia, lambda2=self.lambda2)
             walls = self.half_curl_walls()
             if walls:
                 ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)

@@ -1,6 +1,7 @@
 """The mixed space of a scene: velocity P2 × micro-rotation P2 × pressure P1 (seed §5.2).
 
-The micro-rotation is built only when the scene has micropolar effects.
+The micro-rotation is built only when the scene has micropolar effects: a scalar (ω e_z) in 2D, a vector
+with three components in 3D.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def mixed_space(mesh, micro_rotation: bool) -> MixedSpace:
     gdim = mesh.geometry.dim
     elements = {"velocity": compat.element(mesh, "Lagrange", 2, shape=(gdim,))}
     if micro_rotation:
-        elements["micro_rotation"] = compat.element(mesh, "Lagrange", 2)
+        elements["micro_rotation"] = compat.element(mesh, "Lagrange", 2, shape=(3,) if gdim == 3 else None)
     elements["pressure"] = compat.element(mesh, "Lagrange", 1)
     W = compat.function_space(mesh, compat.mixed_element(elements.values()))
     names = tuple(elements)

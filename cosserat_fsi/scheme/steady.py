@@ -20,6 +20,7 @@ import logging
 from .. import compat
 from ..errors import DivergenceError, InputError
 from .characteristics import PointLocator
+from .linear_solver import LinearSolver
 from .newton import Newton, NewtonReport
 
 import dolfinx
@@ -62,6 +63,7 @@ class SteadyStepper:
 
     failure: str | None = None
     report: NewtonReport | None = None
+    ITERATIVE = False  # takes solver.type: iterative (else MUMPS whatever the scene says)
 
     def __init__(self, problem, state, boundary, motion, timers, comm):
         self.problem, self.state, self.boundary, self.motion = problem, state, boundary, motion
@@ -85,9 +87,12 @@ class SteadyStepper:
         if self.newton is None:
             with self.timers("setup_newton"):
                 tm = self.scene.time
+                linear = None
+                if self.scene.solver.type == "iterative" and self.ITERATIVE:
+                    linear = LinearSolver(self.scene.solver, self.comm, problem=self.problem)
                 self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
                                      compiled=self.compiled, max_iterations=tm.newton_max_iterations,
-                                     rtol=tm.newton_rtol, name="newton")
+                                     rtol=tm.newton_rtol, name="newton", linear_solver=linear)
         return self.newton
 
     def advance(self, observe=None) -> None:
@@ -119,13 +124,17 @@ class SteadyStepper:
 class SteadyFluid(SteadyStepper):
     """Steady Navier–Stokes (and micropolar) flow by Newton on the mixed u (× ω) × p space."""
 
+    ITERATIVE = True
+
     def __init__(self, problem, state, boundary, motion, timers, comm):
         super().__init__(problem, state, boundary, motion, timers, comm)
         self.space = problem.space
         self.solution = dolfinx.fem.Function(self.space.W, name="state")
         self.convection = self.constant(1.0)  # continuation parameter (the Reynolds number's fraction)
         u, _, omega = problem.split(self.solution)
-        micro = self.convection * ufl.dot(u, ufl.grad(omega)) if omega is not None else None
+        micro = None
+        if omega is not None:  # (u·∇)ω: u·grad ω for the 2D scalar, grad(ω) u for the 3D vector
+            micro = self.convection * (ufl.dot(u, ufl.grad(omega)) if ufl.shape(omega) == () else ufl.grad(omega) * u)
         self.residual = problem.residual(self.solution, ufl.TestFunctions(self.space.W),
                                          acceleration=self.acceleration(u), micro_acceleration=micro)
         self.compiled = compat.form(self.residual)
