@@ -19,9 +19,11 @@ from collections.abc import Sequence
 
 import yaml
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, ValidationError, ValidationInfo,
+                      field_validator, model_validator)
 
 from cosserat_fsi.errors import InputError
+from cosserat_fsi.expressions import ExpressionError, parse as parse_expression
 from cosserat_fsi.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load  # noqa: F401
 from cosserat_fsi.geometry import GEOMETRIES, MODELS, Geometry, GeometryBase
 
@@ -217,6 +219,57 @@ class Solver(_Section):
     max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
 
 
+def _expression(value: Any) -> Any:
+    """A number or an expression string in the grammar of cosserat_fsi/expressions.py (kept as given)."""
+    try:
+        parse_expression(value)
+    except ExpressionError as exc:
+        raise ValueError(str(exc)) from None
+    return value
+
+
+Expr = Annotated[Any, BeforeValidator(_expression)]
+
+
+class BoundaryCondition(_Section):
+    """The condition on one named facet group of a file scene (``boundaries: {NAME: {...}}``).
+
+    ``type``: ``no_slip`` (u = 0), ``velocity`` (u = ``value``), ``do_nothing`` (the natural condition of
+    the viscous form: μ ∂u/∂n − p n = 0 for ``laplacian``), ``traction`` (that natural condition = ``value``),
+    ``slip`` (u·n = 0 on a straight boundary along x or y). ``value``: [EXPR, EXPR], each a number or a
+    string in x, y, z, t (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp.
+    ``micro_rotation`` (with micropolar terms): ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly) or
+    ``free`` (natural); default: ``micropolar.wall_condition`` on no-slip boundaries, ``free`` elsewhere.
+    """
+
+    type: Literal["no_slip", "velocity", "do_nothing", "traction", "slip"]
+    value: list[Expr] | None = Field(default=None, validate_default=True)
+    micro_rotation: Literal["zero", "half_curl", "free"] | None = None
+
+    @field_validator("value")
+    @classmethod
+    def _value(cls, value: Any, info: ValidationInfo) -> Any:
+        kind = info.data.get("type")
+        if kind in ("velocity", "traction"):
+            if value is None:
+                raise ValueError(f"missing key (type {kind} needs value: [EXPR, EXPR])")
+            if len(value) != 2:
+                raise ValueError(f"must have 2 components, x and y (got {len(value)})")
+        elif value is not None and kind is not None:
+            raise ValueError(f"not used for type {kind} (only velocity and traction take a value)")
+        return value
+
+    def micro(self, wall_condition: str) -> str:
+        """The micro-rotation condition here: given, or the default for this type."""
+        if self.micro_rotation is not None:
+            return self.micro_rotation
+        return wall_condition if self.type == "no_slip" else "free"
+
+    def expressions(self) -> list:
+        """The parsed components of ``value``."""
+        return [parse_expression(v) for v in self.value or ()]
+
+
 class Output(_Section):
     """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval."""
 
@@ -237,6 +290,7 @@ class Scene(_Section):
     micropolar: Micropolar = Field(default_factory=Micropolar)
     solid: Solid | None = None
     inflow: Inflow | None = None
+    boundaries: dict[str, BoundaryCondition] | None = None
     time: Time
     solver: Solver = Field(default_factory=Solver)
     output: Output = Field(default_factory=Output)
@@ -270,6 +324,16 @@ class Scene(_Section):
             hint = ("geometry.flag is solid; use geometry.flag: rigid for a fluid-only run" if flag == "solid"
                     else f"required for geometry {geo.name}")
             raise ValueError(f"solid: missing section ({hint})")
+        if self.boundaries is not None:
+            if geo.name != "file":
+                raise ValueError(f"boundaries: only for geometry file (geometry {geo.name} sets its own)")
+            if self.inflow is not None:
+                raise ValueError("inflow: not used with a boundaries section (give the inlet's velocity as "
+                                 "boundaries.NAME: {type: velocity, value: [EXPR, EXPR]})")
+            for name, bc in self.boundaries.items():
+                if bc.micro_rotation is not None and not self.has_micropolar:
+                    raise ValueError(f"boundaries.{name}.micro_rotation: only with micropolar terms "
+                                     "(micropolar.mu_r or lambda1 > 0)")
         if geo.INFLOW and self.inflow is None:
             raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
         if self.benchmark is not None:
@@ -356,6 +420,8 @@ def _unknown_key(parts: Sequence[str]) -> str:
     names = _field_names(parts[:-1])
     close = difflib.get_close_matches(parts[-1], names, n=1)
     hint = f"did you mean {close[0]!r}?" if close else "allowed: " + ", ".join(names)
+    if not names:  # inside a mapping of named sections (boundaries.NAME): no list to offer
+        return f"{'.'.join(parts)}: unknown key"
     return f"{'.'.join(parts)}: unknown key ({hint})"
 
 

@@ -118,13 +118,37 @@ def test_turek_hron_fsi3_equals_its_user_file_twin(repo_root, tmp_path):
         assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-10 * (1 + np.abs(a[key]).max())), key
 
 
+INFLOW = "12*y*(0.41 - y)/0.41**2 * (1 - cos(pi*min(t, 0.1)/0.1))/2"
+"""The preset's parabolic inflow of mean 2 with its cosine ramp over 0.1 s (the test's ramp_time)."""
+
+
+def test_turek_hron_fsi3_equals_its_user_file_twin_with_boundaries(repo_root, tmp_path):
+    """The same, with the conditions written in a boundaries section: the inflow (profile and ramp) as an
+    expression of y and t, no-slip walls and cylinder, a do-nothing outlet."""
+    preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
+                        ["geometry.level=0", "time.dt=0.01", "time.t_end=0.2", "inflow.ramp_time=0.1"])
+    msh = MPI.COMM_WORLD.bcast(build_msh(preset.geometry) if MPI.COMM_WORLD.rank == 0 else None)
+    data = preset.model_dump(mode="json")
+    data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(msh)}, boundaries={
+        "inlet": {"type": "velocity", "value": [INFLOW, 0]}, "outlet": {"type": "do_nothing"},
+        "walls": {"type": "no_slip"}, "cylinder": {"type": "no_slip"}})
+    twin = validate_scene(data)
+    a, b = _series(preset, 20), _series(twin, 20)
+    common = sorted(set(a) & set(b))
+    assert {"drag", "lift", "energy_elastic", "flow_rate"} <= set(common), common
+    assert np.abs(a["lift"]).max() > 1e-3
+    for key in common:
+        assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-10 * (1 + np.abs(a[key]).max())), key
+
+
 def _scene_file(folder: Path) -> Path:
     (folder / "block.geo").write_text(BLOCK.read_text())
     path = folder / "scene.yaml"
     path.write_text("geometry: {name: file, path: block.geo}\n"
                     "fluid: {rho: 1.0, mu: 0.01}\n"
                     "solid: {rho: 1.0, mu_s: 100.0}\n"
-                    "inflow: {u_mean: 1.0, ramp_time: 0.05}\n"
+                    "boundaries: {inlet: {type: velocity, value: ['6*y*(1 - y)*min(t/0.05, 1)', 0]},\n"
+                    "             outlet: {type: do_nothing}, walls: {type: no_slip}, clamp: {type: no_slip}}\n"
                     "time: {dt: 0.01, t_end: 0.05}\n"
                     "output: {progress: false, fields: false}\n")
     return path
@@ -136,10 +160,11 @@ def _csv(path):
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
+@pytest.mark.slow
 def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
-    """A user's .geo (an elastic block clamped to the floor: no-slip 'clamp' and 'walls', parabolic 'inlet',
-    the interface found from the cells) runs from the command line on 1 and 2 ranks with the same time
-    series (1e-10)."""
+    """A user's .geo (an elastic block clamped to the floor; a boundaries section: no-slip 'clamp' and
+    'walls', a ramped parabolic 'inlet' expression; the interface found from the cells) runs from the
+    command line on 1 and 2 ranks with the same time series (1e-10)."""
     scene = _scene_file(tmp_path)
     one = run_cli("run", scene, "--out", tmp_path / "one")
     assert one.returncode == 0, one.stderr
@@ -150,3 +175,11 @@ def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     assert np.abs(a["flow_rate"]).max() > 0.1 and np.abs(a["energy_elastic"]).max() > 0
     for key in a:
         assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-12), key
+
+
+def test_perpendicular_flap_example_runs(repo_root):
+    """examples/perpendicular_flap (a .geo + boundaries) for 3 steps: the inflow pushes the flap downstream."""
+    scene = load_scene(repo_root / "examples" / "perpendicular_flap" / "flap.yaml", ["time.t_end=0.03"])
+    series = _series(scene, 3)
+    assert np.all(np.isfinite(series["drag"])) and series["drag"][-1] > 0
+    assert series["energy_kinetic"][-1] > 0

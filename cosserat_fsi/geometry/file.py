@@ -119,6 +119,20 @@ def check_scene(scene, names: dict[str, Any]) -> None:
         raise InputError(f"solid: missing section ({shown} has {cells['solid']} solid cells)")
     if scene.solid is not None and not cells.get("solid"):
         raise InputError(f"solid: {shown} has no solid cells (cell groups {', '.join(scene.geometry.cells.solid)})")
+    facets = sorted(names["facets"])
+    internal = {"interface"} if cells.get("solid") and cells.get("fluid") else set()
+    if scene.boundaries is not None:
+        for name in scene.boundaries:
+            if name in internal:
+                raise InputError(f"boundaries.{name}: the fluid-solid interface is inside the domain; it takes "
+                                 "no condition")
+            if name not in names["facets"]:
+                raise InputError(f"boundaries.{name}: {shown} has no facet group {name!r} (it has: "
+                                 f"{', '.join(n for n in facets if n not in internal) or 'none'})")
+        for name in facets:
+            if name not in internal and name not in scene.boundaries:
+                raise InputError(f"boundaries: facet group {name!r} of {shown} has no condition (add "
+                                 f"boundaries.{name}: {{type: no_slip | velocity | do_nothing | traction | slip}})")
     if scene.inflow is not None and "inlet" not in names["facets"]:
         raise InputError(f"inflow: {shown} has no facet group 'inlet' (it has: "
                          f"{', '.join(sorted(names['facets'])) or 'none'})")
@@ -239,7 +253,7 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     return {"facets": facets, "cells": counts}
 
 
-def _line_nodes(gmsh, entity) -> "Any":
+def _line_nodes(gmsh, entity) -> Any:
     import numpy as np
 
     types, _, nodes = gmsh.model.mesh.getElements(1, entity)

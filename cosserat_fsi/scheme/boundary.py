@@ -13,6 +13,8 @@ from collections.abc import Callable
 import numpy as np
 from mpi4py import MPI
 
+from .. import compat
+from ..errors import InputError
 from .problem import Problem, ramp
 
 import dolfinx
@@ -38,6 +40,9 @@ class BoundaryConditions:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)
             return
         scene = problem.scene
+        if scene.boundaries is not None:
+            self._named(scene.boundaries, micro)
+            return
         inflow = scene.inflow
         moving_lid = inflow is not None and scene.geometry.name in ("square", "cube")
         no_slip = problem.no_slip_boundaries()
@@ -46,6 +51,42 @@ class BoundaryConditions:
             self._inflow(inflow, moving_lid)
         if micro and not weak:
             self._add("micro_rotation", no_slip + ("lid",))
+
+    def _named(self, boundaries, micro: bool) -> None:
+        """The conditions of a ``boundaries`` section: no-slip first, then the velocities (they win at shared
+        corners, as the built-in inflow does), slip; ω = 0 where the micro-rotation condition is zero."""
+        self._add("velocity", self.problem.no_slip_boundaries())
+        for name, bc in boundaries.items():
+            if bc.type == "velocity":
+                self._add("velocity", (name,), expressions=bc.expressions())
+        for name, bc in boundaries.items():
+            if bc.type == "slip":
+                self._slip(name)
+        if micro:
+            zero = self.problem.micro_rotation_boundaries("zero")
+            if zero:
+                self._add("micro_rotation", zero)
+
+    def _slip(self, name: str) -> None:
+        """u·n = 0 on a straight boundary along x or y: the normal component is zero."""
+        mesh = self.problem.mesh
+        facets = self.problem.facets(name)
+        fdim = mesh.topology.dim - 1
+        sp = self.space
+        V0, _ = compat.collapse(sp.sub("velocity").sub(0))
+        local = dolfinx.fem.locate_dofs_topological((sp.sub("velocity").sub(0), V0), fdim, facets)[1]
+        x = V0.tabulate_dof_coordinates()[local][:, :2]
+        lo = self.comm.allreduce(x.min(axis=0) if len(x) else np.full(2, np.inf), op=MPI.MIN)
+        hi = self.comm.allreduce(x.max(axis=0) if len(x) else np.full(2, -np.inf), op=MPI.MAX)
+        extent = hi - lo
+        size = max(float(np.max(extent)), 1e-300)
+        flat = [i for i in range(2) if extent[i] <= 1e-10 * size]
+        if len(flat) != 1:
+            raise InputError(f"boundaries.{name}: type slip needs a straight boundary along x or y "
+                             "(u.n = 0 is imposed on one velocity component)")
+        Vi, _ = compat.collapse(sp.sub("velocity").sub(flat[0]))
+        dofs = dolfinx.fem.locate_dofs_topological((sp.sub("velocity").sub(flat[0]), Vi), fdim, facets)
+        self.bcs.append(dolfinx.fem.dirichletbc(dolfinx.fem.Function(Vi), dofs, sp.sub("velocity").sub(flat[0])))
 
     def update(self, t: float) -> None:
         """Set the time-dependent boundary values to time ``t``."""
@@ -60,10 +101,16 @@ class BoundaryConditions:
         y0 = self.comm.allreduce(x[:, 1].min(), op=MPI.MIN)
         H = self.comm.allreduce(x[:, 1].max(), op=MPI.MAX) - y0
 
+        if len(zeros) == 2:  # 3D duct: the parabola in z too (mean u_mean over the inlet)
+            z0 = self.comm.allreduce(x[:, 2].min(), op=MPI.MIN)
+            W = self.comm.allreduce(x[:, 2].max(), op=MPI.MAX) - z0
+
         def profile(x):
             y = x[1] - y0
             ux = (6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic"
                   else np.full_like(y, inflow.u_mean))
+            if len(zeros) == 2 and inflow.profile == "parabolic":
+                ux = ux * 6.0 * (x[2] - z0) * (W - (x[2] - z0)) / W**2
             return np.vstack([ux] + [z(ux) for z in zeros])
 
         def lid(x):
@@ -79,7 +126,7 @@ class BoundaryConditions:
         self._add("velocity", ("lid",) if moving_lid else ("inlet",), values=lid if moving_lid else profile,
                   scale=lambda t: ramp(t, ramp_time), kick=kick)
 
-    def _add(self, space_name, facet_names, values=None, scale=None, exact=None, kick=None):
+    def _add(self, space_name, facet_names, values=None, scale=None, exact=None, kick=None, expressions=None):
         """One condition on the sub-space ``space_name``: fixed ``values`` (× ``scale(t)``, plus
         ``kick = (values2, scale2)`` × scale2(t)), the ``exact(x, t)`` data, or zero."""
         sp = self.space
@@ -96,6 +143,14 @@ class BoundaryConditions:
                 self._updates.append(lambda t: g.x.array.__setitem__(slice(None), scale(t) * g0 + scale1(t) * g1))
         if exact is not None:
             self._updates.append(lambda t: g.interpolate(lambda x: exact(x, t)))
+        if expressions is not None:  # a boundaries section's value: [EXPR, EXPR] in x, y, z, t
+
+            def fill(t, g=g, expressions=expressions):
+                g.interpolate(lambda x: np.vstack([e.evaluate(x, t) for e in expressions]))
+
+            fill(0.0)
+            if any(e.time_dependent for e in expressions):
+                self._updates.append(fill)
         fdim = self.problem.mesh.topology.dim - 1
         dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim,
                                                    self.problem.facets(*facet_names))

@@ -58,8 +58,8 @@ class Problem:
 
     Coefficients (UFL-ready, fixed for the run unless a source is time dependent): ``rho``, ``mu``,
     ``body_force`` (f), ``penalty`` (ζ), ``viscous_form``; with micro-rotation ``mu_r``, ``lambda1``,
-    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s``; the others are None. ρ and f are DG0 fields
-    (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
+    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s``; the others are None. ρ and f
+    are DG0 fields (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
     """
 
     def __init__(self, scene, mesh, cell_tags, facet_tags, space: MixedSpace | None = None, exact=None,
@@ -81,6 +81,7 @@ class Problem:
             self.solid_velocity_dofs = dolfinx.fem.locate_dofs_topological(
                 self.space.space("velocity"), mesh.topology.dim, solid_cells)
         self._source_updates: list[Callable[[float], None]] = []
+        self.time = self.constant(0.0)  # t in the expressions of a boundaries section (update_sources)
         self._coefficients(exact)
 
     # ------------------------------------------------------------------------------ coefficients
@@ -159,6 +160,7 @@ class Problem:
 
     def update_sources(self, t: float) -> None:
         """Set the time-dependent coefficients (gravity ramp, manufactured sources) to time ``t``."""
+        self.time.value = t
         for update in self._source_updates:
             update(t)
 
@@ -173,14 +175,42 @@ class Problem:
         return [self.facet_ids[n] for n in names if n in self.facet_ids]
 
     def no_slip_boundaries(self) -> tuple:
-        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free)."""
+        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free); with a
+        ``boundaries`` section: the names of type no_slip."""
+        if self.scene.boundaries is not None:
+            return tuple(name for name, bc in self.scene.boundaries.items() if bc.type == "no_slip")
         return ("walls", "cylinder", "clamp") + (() if self.model.solid else ("interface",))
 
+    def micro_rotation_boundaries(self, condition: str) -> tuple:
+        """With a ``boundaries`` section: the names whose micro-rotation condition is ``condition``."""
+        wall = self.scene.micropolar.wall_condition
+        return tuple(name for name, bc in (self.scene.boundaries or {}).items() if bc.micro(wall) == condition)
+
     def half_curl_walls(self) -> tuple:
-        """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl)."""
-        if not self.model.micro_rotation or self.scene.micropolar.wall_condition != "half_curl":
+        """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl, or per
+        boundary in a ``boundaries`` section)."""
+        if not self.model.micro_rotation:
+            return ()
+        if self.scene.boundaries is not None:
+            return self.micro_rotation_boundaries("half_curl")
+        if self.scene.micropolar.wall_condition != "half_curl":
             return ()
         return self.no_slip_boundaries() + ("lid",)
+
+    def traction(self, v) -> ufl.Form | None:
+        """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t), or
+        None."""
+        named = [(name, bc) for name, bc in (self.scene.boundaries or {}).items() if bc.type == "traction"]
+        if not named:
+            return None
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
+        x = ufl.SpatialCoordinate(self.mesh)
+        form = None
+        for name, bc in named:
+            g = ufl.as_vector([e.to_ufl(x, self.time) for e in bc.expressions()])
+            term = -ufl.inner(g, v) * ds(self.facet_ids[name])
+            form = term if form is None else form + term
+        return form
 
     # ------------------------------------------------------------------------------------ forms
     def split(self, w) -> tuple:
@@ -204,6 +234,9 @@ class Problem:
                                     body_force=self.body_force, dx=dx, viscous_form=self.viscous_form,
                                     dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r)
         F = F + fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=dx)
+        traction = self.traction(v)
+        if traction is not None:
+            F = F + traction
         if self.model.micro_rotation:
             F = F + fluid.micro_rotation_residual(u, omega, tau, rho=self.rho, inertia=self.inertia,
                                                   acceleration=micro_acceleration, mu_r=self.mu_r,

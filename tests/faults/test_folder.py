@@ -38,6 +38,7 @@ def _wait_for(predicate, seconds=60.0):
     return False
 
 
+@pytest.mark.slow
 def test_two_runs_into_one_folder(tiny_config, tmp_path):
     """The second run is refused naming the first's PID and touches nothing; the first ends normally."""
     out = tmp_path / "run"
@@ -69,6 +70,7 @@ def test_a_finished_run_is_not_replaced(tiny_config, run_copy):
     assert snapshot(run_copy) == before
 
 
+@pytest.mark.slow
 def test_overwrite_replaces_only_once_set_up(tiny_config, run_copy):
     """A failing --overwrite (here at the mesh, on rank 0) leaves the old run; a working one replaces it."""
     before = snapshot(run_copy)
@@ -82,6 +84,7 @@ def test_overwrite_replaces_only_once_set_up(tiny_config, run_copy):
     assert len((run_copy / "timeseries.csv").read_text().splitlines()) == 3
 
 
+@pytest.mark.slow
 def test_stale_lock_is_taken_over_with_a_warning(tiny_config, tmp_path):
     out = tmp_path / "run"
     out.mkdir()
@@ -132,6 +135,7 @@ def test_out_is_a_file(tiny_config, tmp_path):
     ("fields.write@0:enospc:3", "fields.h5: cannot write (No space left on device)"),
     ("checkpoint.rank@0:enospc", "rank0000.npz: cannot write (No space left on device)"),
 ], ids=["rows", "fields", "checkpoint"])
+@pytest.mark.slow
 def test_disk_fills_mid_run(tiny_config, tmp_path, failpoint, expected):
     """Exit 2 naming the file; summary.json (complete, not 0 bytes) says failed; the rows before are kept."""
     out = tmp_path / "run"
@@ -144,6 +148,7 @@ def test_disk_fills_mid_run(tiny_config, tmp_path, failpoint, expected):
     assert not (out / ".lock").exists()
 
 
+@pytest.mark.slow
 def test_summary_that_cannot_be_written_leaves_no_partial_file(tiny_config, tmp_path):
     out = tmp_path / "run"
     result = cli("run", tiny_config, "--out", out, "--no-progress", COSSERAT_FSI_FAILPOINT="summary@0:enospc")
@@ -258,6 +263,7 @@ def test_unwritable_home_falls_back(tmp_path):
     assert result.stdout.strip().split(":")[0].endswith(".msh")
 
 
+@pytest.mark.slow
 def test_a_reader_holding_fields_h5_does_not_stop_an_overwrite(tiny_config, run_copy):
     """ParaView/plot holding the old fields.h5 keeps its copy; --overwrite writes a new file."""
     with h5py.File(run_copy / "fields.h5", "r") as held:

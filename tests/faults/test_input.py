@@ -180,6 +180,8 @@ Line(1) = {1,2}; Line(2) = {2,3}; Line(3) = {3,4}; Line(4) = {4,5}; Line(5) = {5
 Line(7) = {3,7}; Line(8) = {7,8}; Line(9) = {8,2};
 Curve Loop(1) = {1,-9,-8,-7,3,4,5,6}; Plane Surface(1) = {1}; Curve Loop(2) = {2,7,8,9}; Plane Surface(2) = {2};
 """  # a unit square with a 0.2 x 0.3 block standing on its floor (surface 2)
+_TWO_NAMES = ('Physical Surface("fluid") = {1}; Physical Curve("walls") = {1,3,4}; '
+              'Physical Curve("outlet") = {2};\n')
 _BLOCK_NAMED = 'Physical Surface("fluid") = {1}; Physical Surface("solid") = {2};\n'
 _NAMED = 'Physical Surface("fluid") = {1}; Physical Curve("walls") = {1,2,3,4};\n'
 _BOX3D = "SetFactory(\"OpenCASCADE\"); Box(1) = {0,0,0,1,1,1};\nPhysical Volume(\"fluid\") = {1};\n" \
@@ -210,8 +212,55 @@ FILE_SCENES = {  # (files {name: content}, geometry section, extra YAML, expecte
                                "solid: {rho: 1.0, mu_s: 100.0}\n", "solid: m.geo has no solid cells"),
     "inflow_without_inlet": ({"m.geo": _SQUARE + _NAMED}, "{name: file, path: m.geo}",
                              "inflow: {u_mean: 1.0}\n", "inflow: m.geo has no facet group 'inlet' (it has: walls)"),
-    "interface_not_interface": ({"m.geo": _BLOCK + _BLOCK_NAMED + 'Physical Curve("interface") = {8};\n'}, "{name: file, path: m.geo}",
+    "interface_not_interface": ({"m.geo": _BLOCK + _BLOCK_NAMED + 'Physical Curve("interface") = {8};\n'},
+                                "{name: file, path: m.geo}",
                                 "solid: {rho: 1.0, mu_s: 100.0}\n", "facet group 'interface' of m.geo is not the"),
+    "bnd_unknown_name": ({"m.geo": _SQUARE + _NAMED}, "{name: file, path: m.geo}",
+                         "boundaries: {walls: {type: no_slip}, inflow_x: {type: do_nothing}}\n",
+                         "boundaries.inflow_x: m.geo has no facet group 'inflow_x' (it has: walls)"),
+    "bnd_without_condition": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                              "boundaries: {walls: {type: no_slip}}\n",
+                              "boundaries: facet group 'outlet' of m.geo has no condition"),
+    "bnd_on_interface": ({"m.geo": _BLOCK + _BLOCK_NAMED + 'Physical Curve("walls") = {1,2,3,4,5,6};\n'},
+                         "{name: file, path: m.geo}", "solid: {rho: 1.0, mu_s: 100.0}\n"
+                         "boundaries: {walls: {type: no_slip}, interface: {type: no_slip}}\n",
+                         "boundaries.interface: the fluid-solid interface is inside the domain"),
+    "bnd_builtin_geometry": ({}, "{name: channel}", "boundaries: {walls: {type: no_slip}}\n",
+                             "boundaries: only for geometry file (geometry channel sets its own)"),
+    "bnd_with_inflow": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                        "inflow: {u_mean: 1.0}\nboundaries: {walls: {type: no_slip}, outlet: {type: do_nothing}}\n",
+                        "inflow: not used with a boundaries section"),
+    "bnd_unknown_symbol": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                           "boundaries: {walls: {type: velocity, value: ['2*q', 0]}, outlet: {type: do_nothing}}\n",
+                           "boundaries.walls.value[0]: unknown symbol 'q' in '2*q' (allowed: x, y, z, t, pi"),
+    "bnd_syntax": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                   "boundaries: {walls: {type: velocity, value: [0, 'sin(x']}, outlet: {type: do_nothing}}\n",
+                   "boundaries.walls.value[1]: syntax error in 'sin(x'"),
+    "bnd_components": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                       "boundaries: {walls: {type: traction, value: [1, 0, 0]}, outlet: {type: do_nothing}}\n",
+                       "boundaries.walls.value: must have 2 components, x and y (got 3)"),
+    "bnd_import": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                   "boundaries: {walls: {type: velocity, value: [\"__import__('os').system('touch X')\", 0]},"
+                   " outlet: {type: do_nothing}}\n", "boundaries.walls.value[0]: only the functions"),
+    "bnd_attribute": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                      "boundaries: {walls: {type: velocity, value: ['x.__class__', 0]}, outlet: {type: do_nothing}}\n",
+                      "boundaries.walls.value[0]: an attribute is not allowed"),
+    "bnd_missing_value": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                          "boundaries: {walls: {type: velocity}, outlet: {type: do_nothing}}\n",
+                          "boundaries.walls.value: missing key (type velocity needs value: [EXPR, EXPR])"),
+    "bnd_value_not_used": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                           "boundaries: {walls: {type: no_slip, value: [0, 0]}, outlet: {type: do_nothing}}\n",
+                           "boundaries.walls.value: not used for type no_slip"),
+    "bnd_bad_type": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                     "boundaries: {walls: {type: wall}, outlet: {type: do_nothing}}\n",
+                     "boundaries.walls.type: must be one of no_slip, velocity, do_nothing, traction, slip"),
+    "bnd_micro_without_micropolar": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                                     "boundaries: {walls: {type: no_slip, micro_rotation: zero}, "
+                                     "outlet: {type: do_nothing}}\n",
+                                     "boundaries.walls.micro_rotation: only with micropolar terms"),
+    "bnd_slip_not_straight": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
+                              "boundaries: {walls: {type: slip}, outlet: {type: do_nothing}}\n",
+                              "boundaries.walls: type slip needs a straight boundary along x or y"),
     "second_order": ({"m.geo": _SQUARE + _NAMED + "Mesh.ElementOrder = 2;\n"}, "{name: file, path: m.geo}", "",
                      "only first-order triangles and quadrangles"),
     "fluid_and_solid_name": ({"m.geo": _SQUARE + _NAMED}, "{name: file, path: m.geo, cells: {solid: [fluid]}}", "",
@@ -230,8 +279,10 @@ def test_file_scene_bad_input(main, tmp_path, monkeypatch, files, geometry, extr
         (tmp_path / name).write_text(content)
     scene = tmp_path / "scene.yaml"
     scene.write_text(f"geometry: {geometry}\n{_SCENE}{extra}")
+    monkeypatch.chdir(tmp_path)  # a "touch X" that ran would leave X here
     code, err = main("run", scene, "--out", main.out)
     _one_line(code, err, expected)
+    assert not (tmp_path / "X").exists()
 
 
 def test_file_scene_gmsh_failure(main, tmp_path, monkeypatch):

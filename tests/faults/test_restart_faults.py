@@ -52,10 +52,12 @@ DAMAGE = {  # what is done to the copy -> what the message must contain
     "rank_file_other_step": (lambda f: _npz(f, step_count=np.array(7)), "is of another step"),
     "timeseries_missing": (lambda f: (f / "timeseries.csv").unlink(), "timeseries.csv is missing"),
     "timeseries_short": (lambda f: (f / "timeseries.csv").write_text(
-        "".join((f / "timeseries.csv").read_text().splitlines(keepends=True)[:2])), "has 1 rows, the checkpoint needs 2"),
+        "".join((f / "timeseries.csv").read_text().splitlines(keepends=True)[:2])),
+        "has 1 rows, the checkpoint needs 2"),
     "timeseries_damaged_row": (lambda f: (f / "timeseries.csv").write_text(
         (f / "timeseries.csv").read_text().replace("e-", "x-", 1)), "line 2 is not a row of"),
-    "timeseries_foreign": (lambda f: (f / "timeseries.csv").write_text("a,b\n1,2\n"), "is not a cosserat-fsi time series"),
+    "timeseries_foreign": (lambda f: (f / "timeseries.csv").write_text("a,b\n1,2\n"),
+                           "is not a cosserat-fsi time series"),
     "timeseries_other_columns": (lambda f: (f / "timeseries.csv").write_text(
         (f / "timeseries.csv").read_text().replace("drag", "dragg", 1)), "has other columns"),
     "xdmf_missing": (lambda f: (f / "fields.xdmf").unlink(), "fields.xdmf: file not found"),

@@ -1,0 +1,166 @@
+"""Expressions of the ``boundaries:`` section: strings in x, y, z, t parsed by a whitelisted grammar.
+
+``parse(text)`` turns e.g. ``"1.5*y*(0.41-y)/0.042025 * (1 - cos(pi*min(t, 2)/2))/2"`` into an
+:class:`Expression`: a tree of numbers, the symbols x, y, z, t, pi, the operators + - * / ** (unary + -),
+parentheses and the functions sin cos tan exp log sqrt tanh abs min max. Python's ``ast`` only *parses* the
+text (``ast.parse(mode="eval")``, no compile, no eval); the tree is then walked with an explicit whitelist of
+node types and names: anything else (an attribute, a subscript, a call of another name, a lambda, a string,
+a keyword argument, a comparison, ...) is refused with one line, and nothing of the text is ever executed.
+
+The same tree is evaluated with numpy (``evaluate(x, t)``, for interpolating Dirichlet data into a
+Function) or built as a UFL expression (``to_ufl(x, t)`` with x the SpatialCoordinate and t a Constant,
+for weak terms such as a traction). Light module: no dolfinx/ufl import at import time.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from dataclasses import dataclass
+from typing import Any
+
+COORDINATES = ("x", "y", "z")
+SYMBOLS = (*COORDINATES, "t", "pi")
+FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "exp": 1, "log": 1, "sqrt": 1, "tanh": 1, "abs": 1, "min": 2, "max": 2}
+MAX_LENGTH = 2000
+MAX_DEPTH = 60
+
+
+class ExpressionError(ValueError):
+    """An expression outside the grammar (the message is one line, without the key)."""
+
+
+@dataclass(frozen=True)
+class Expression:
+    """A parsed expression: ``text`` and its tree (nested tuples: ("num", v), ("sym", name),
+    ("neg", a), ("add"|"sub"|"mul"|"div"|"pow", a, b), ("call", name, args))."""
+
+    text: str
+    tree: tuple
+
+    @property
+    def symbols(self) -> set[str]:
+        """The symbols it uses (x, y, z, t, pi)."""
+        found: set[str] = set()
+
+        def walk(node):
+            if node[0] == "sym":
+                found.add(node[1])
+            elif node[0] == "call":
+                for a in node[2]:
+                    walk(a)
+            elif node[0] != "num":
+                for a in node[1:]:
+                    walk(a)
+
+        walk(self.tree)
+        return found
+
+    @property
+    def time_dependent(self) -> bool:
+        return "t" in self.symbols
+
+    def evaluate(self, x, t: float):
+        """numpy values at points ``x`` (shape (3, n)) and time ``t`` (an array of shape (n,))."""
+        import numpy as np
+
+        n = x.shape[1]
+        env = {"x": x[0], "y": x[1], "z": x[2], "t": float(t), "pi": math.pi}
+        funcs = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
+                 "tanh": np.tanh, "abs": np.abs, "min": np.minimum, "max": np.maximum}
+        with np.errstate(all="ignore"):
+            value = _build(self.tree, env, funcs)
+        return np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+
+    def to_ufl(self, x, t):
+        """The UFL expression for spatial coordinate ``x`` and time ``t`` (a Constant)."""
+        import ufl
+
+        env = {"x": x[0], "y": x[1], "z": x[2] if len(x) > 2 else 0.0, "t": t, "pi": math.pi}
+        funcs = {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "exp": ufl.exp, "log": ufl.ln, "sqrt": ufl.sqrt,
+                 "tanh": ufl.tanh, "abs": abs, "min": ufl.min_value, "max": ufl.max_value}
+        return _build(self.tree, env, funcs)
+
+
+_BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
+
+
+def parse(text: Any) -> Expression:
+    """A number or a string in the grammar (see the module docstring) -> Expression; ExpressionError if not."""
+    if isinstance(text, bool):
+        raise ExpressionError(f"must be a number or an expression string (got {text!r})")
+    if isinstance(text, (int, float)):
+        if not math.isfinite(text):
+            raise ExpressionError(f"must be a finite number (got {text!r})")
+        return Expression(repr(float(text)), ("num", float(text)))
+    if not isinstance(text, str):
+        raise ExpressionError(f"must be a number or an expression string (got {type(text).__name__})")
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
+    if not text.strip():
+        raise ExpressionError("empty expression")
+    try:
+        node = ast.parse(text.strip(), mode="eval")  # parsing only: the tree is walked below, never compiled
+    except SyntaxError as exc:
+        where = f" at column {exc.offset}" if exc.offset else ""
+        raise ExpressionError(f"syntax error in {text!r}{where}") from None
+    except (ValueError, RecursionError, MemoryError):
+        raise ExpressionError(f"cannot parse {text[:60]!r}") from None
+    return Expression(text, _walk(node.body, text, 0))
+
+
+def _walk(node: ast.AST, text: str, depth: int) -> tuple:
+    if depth > MAX_DEPTH:
+        raise ExpressionError(f"expression nested deeper than {MAX_DEPTH} levels")
+    if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+        if not math.isfinite(node.value):
+            raise ExpressionError(f"number out of range in {text!r}")
+        return ("num", float(node.value))
+    if isinstance(node, ast.Name):
+        if node.id in SYMBOLS:
+            return ("sym", node.id)
+        if node.id in FUNCTIONS:
+            raise ExpressionError(f"{node.id} is a function: call it, e.g. {node.id}(x)")
+        raise ExpressionError(f"unknown symbol {node.id!r} in {text!r} (allowed: {', '.join(SYMBOLS)} and "
+                              f"the functions {', '.join(FUNCTIONS)})")
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        inner = _walk(node.operand, text, depth + 1)
+        return ("neg", inner) if isinstance(node.op, ast.USub) else inner
+    if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+        return (_BINARY[type(node.op)], _walk(node.left, text, depth + 1), _walk(node.right, text, depth + 1))
+    if isinstance(node, ast.Call):
+        if not isinstance(node.func, ast.Name):
+            raise ExpressionError(f"only the functions {', '.join(FUNCTIONS)} may be called, by name, in {text!r}")
+        name = node.func.id
+        if name not in FUNCTIONS:
+            raise ExpressionError(f"unknown function {name!r} in {text!r} (allowed: {', '.join(FUNCTIONS)})")
+        if node.keywords or len(node.args) != FUNCTIONS[name]:
+            raise ExpressionError(f"{name} takes {FUNCTIONS[name]} argument(s) in {text!r}")
+        return ("call", name, tuple(_walk(a, text, depth + 1) for a in node.args))
+    what = {ast.Attribute: "an attribute", ast.Subscript: "a subscript", ast.Lambda: "a lambda",
+            ast.Compare: "a comparison", ast.BoolOp: "a boolean operator", ast.IfExp: "a conditional",
+            ast.Constant: "a constant that is not a number"}.get(type(node), f"a {type(node).__name__}")
+    raise ExpressionError(f"{what} is not allowed in {text!r} (numbers, x, y, z, t, pi, + - * / **, "
+                          "parentheses and the functions " + ", ".join(FUNCTIONS) + ")")
+
+
+def _build(node: tuple, env: dict, funcs: dict):
+    kind = node[0]
+    if kind == "num":
+        return node[1]
+    if kind == "sym":
+        return env[node[1]]
+    if kind == "neg":
+        return -_build(node[1], env, funcs)
+    if kind == "call":
+        return funcs[node[1]](*(_build(a, env, funcs) for a in node[2]))
+    a, b = _build(node[1], env, funcs), _build(node[2], env, funcs)
+    if kind == "add":
+        return a + b
+    if kind == "sub":
+        return a - b
+    if kind == "mul":
+        return a * b
+    if kind == "div":
+        return a / b
+    return a**b
