@@ -49,7 +49,7 @@ BAD = [
     ("dt_negative", None, ["time.dt=-0.1"], "time.dt: must be > 0 (got -0.1)"),
     ("t_end_below_dt", None, ["time.t_end=0.001"], "time.t_end: must be >= time.dt"),
     ("bad_geometry", None, ["geometry.name=foo"],
-     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube (got 'foo')"),
+     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct (got 'foo')"),
     ("level_7", None, ["geometry.level=7"], "geometry.level: must be an integer 0..6 or 'seed' (got 7)"),
     ("level_float", None, ["geometry.level=1.0"], "geometry.level: must be an integer"),
     ("seed_on_channel", None, ["geometry.name=channel", "geometry.flag=null", "geometry.level=seed"],
@@ -77,7 +77,7 @@ BAD = [
     # the geometry union: one model per geometry, chosen by name
     ("geometry_without_name", BASE.replace("name: turek_hron, ", ""), [], "geometry.name: missing key"),
     ("height_on_square", None, ["geometry.name=square", "geometry.flag=null", "geometry.height=2"],
-     "geometry.height: not used for geometry 'square' (only for channel, flag)"),
+     "geometry.height: not used for geometry 'square' (only for channel, flag, duct)"),
     ("radius_on_channel", None, ["geometry={name: channel, radius: 0.1}"], "geometry.radius: only for geometry box"),
     ("misspelt_geometry_key", None, ["geometry.lenght=2"], "geometry.lenght: unknown key (did you mean 'length'?)"),
     ("box_radius_too_large", None, ["geometry={name: box, radius: 0.5}", "solid={rho: 1, mu_s: 1}"],

@@ -37,6 +37,7 @@ from ._model import MAX_LEVEL, GeometryBase
 from .box import Box
 from .channel import Channel
 from .cube import Cube
+from .duct import Duct
 from .file import FileGeometry, names_path, read_names
 from .flag import Flag
 from .schaefer_turek import SchaeferTurek
@@ -44,14 +45,14 @@ from .square import Square
 from .turek_hron import TurekHron
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
-Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube,
+Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube | Duct,
                      Field(discriminator="name")]
 """The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
 MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m in get_args(get_args(Geometry)[0])}
 """Geometry name -> its model class."""
 _MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
-__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "FileGeometry", "Flag", "Geometry",
+__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "Duct", "FileGeometry", "Flag", "Geometry",
            "GeometryBase", "MODELS", "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir",
            "facet_ids"]
 

@@ -46,25 +46,24 @@ def estimate_cells(scale: float, params: dict[str, Any]) -> int:
     return 6 * divisions(scale) ** 3
 
 
-def _tetrahedra(n: int):
-    """Node coordinates (unit cube, (n+1)³ grid) and the tetrahedra: each hexahedron cut into the 6 tetrahedra
-    of its diagonal (Kuhn), mirrored in every direction with the parity of its index, so that the diagonal
-    of each corner hexahedron passes through the cube's corner. (With one diagonal direction everywhere, two
-    corner tetrahedra have all their edges on the boundary, and their corner pressure is left free: two
-    spurious P1 pressure modes of the Taylor–Hood pair.)"""
+def _tetrahedra(nx: int, ny: int, nz: int):
+    """Node coordinates (unit box, (nx+1)(ny+1)(nz+1) grid) and the tetrahedra: each hexahedron cut into the 6
+    tetrahedra of its diagonal (Kuhn), mirrored in every direction with the parity of its index, so that the
+    diagonal of each corner hexahedron passes through the box's corner (with an even number of divisions).
+    (With one diagonal direction everywhere, two corner tetrahedra have all their edges on the boundary and
+    their corner pressure is left free: two spurious P1 pressure modes of the Taylor–Hood pair.)"""
     import itertools
 
     import numpy as np
 
-    grid = np.linspace(0.0, 1.0, n + 1)
-    X, Y, Z = np.meshgrid(grid, grid, grid, indexing="ij")
+    X, Y, Z = np.meshgrid(*(np.linspace(0.0, 1.0, n + 1) for n in (nx, ny, nz)), indexing="ij")
     points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
 
     def node(i, j, k):
-        return (i * (n + 1) + j) * (n + 1) + k
+        return (i * (ny + 1) + j) * (nz + 1) + k
 
     cells = []
-    for i, j, k in itertools.product(range(n), repeat=3):
+    for i, j, k in itertools.product(range(nx), range(ny), range(nz)):
         for order in itertools.permutations(range(3)):
             local, path = [0, 0, 0], [(0, 0, 0)]
             for axis in order:
@@ -75,31 +74,35 @@ def _tetrahedra(n: int):
     return points, np.array(cells)
 
 
-def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
-    """Write the structured tetrahedral mesh (2 / ``scale`` divisions per side) into the current gmsh
-    session as discrete entities: the volume, the walls and the lid."""
+def structured_box(gmsh: ModuleType, sides, divisions_xyz, face_name) -> None:
+    """Write the structured tetrahedral mesh of [0, sides[0]] × [0, sides[1]] × [0, sides[2]] into the current
+    gmsh session as discrete entities: the fluid volume and one surface per facet name; ``face_name(axis,
+    at_end)`` names the face x_axis = 0 (``at_end`` False) or x_axis = side."""
     import numpy as np
 
-    n, size = divisions(scale), params["size"]
-    points, cells = _tetrahedra(n)
-    points = points * size
+    points, cells = _tetrahedra(*divisions_xyz)
+    points = points * np.asarray(sides, dtype=float)
     volume = gmsh.model.addDiscreteEntity(3)
-    surfaces = {name: gmsh.model.addDiscreteEntity(2) for name in ("walls", "lid")}
-    tags = np.arange(1, len(points) + 1)
-    gmsh.model.mesh.addNodes(3, volume, tags, points.ravel())
+    gmsh.model.mesh.addNodes(3, volume, np.arange(1, len(points) + 1), points.ravel())
     gmsh.model.mesh.addElementsByType(volume, 4, [], (cells + 1).ravel())  # 4: 4-node tetrahedron
     faces = np.concatenate([cells[:, [0, 1, 2]], cells[:, [0, 1, 3]], cells[:, [0, 2, 3]], cells[:, [1, 2, 3]]])
-    on_boundary = {}
+    groups: dict[str, list] = {}
     for axis in range(3):
-        for value in (0.0, size):
-            flat = np.all(np.abs(points[faces][:, :, axis] - value) < 1e-12 * size, axis=1)
-            name = "lid" if (axis == 1 and value == size) else "walls"
-            on_boundary.setdefault(name, []).append(faces[flat])
-    for name, groups in on_boundary.items():
-        triangles = np.concatenate(groups)
-        gmsh.model.mesh.addElementsByType(surfaces[name], 2, [], (triangles + 1).ravel())  # 2: triangle
+        for at_end in (False, True):
+            value = sides[axis] if at_end else 0.0
+            flat = np.all(np.abs(points[faces][:, :, axis] - value) < 1e-12 * max(sides), axis=1)
+            groups.setdefault(face_name(axis, at_end), []).append(faces[flat])
     gmsh.model.addPhysicalGroup(3, [volume], CELL_TAGS["fluid"])
     gmsh.model.setPhysicalName(3, CELL_TAGS["fluid"], "fluid")
-    for name, surface in surfaces.items():
+    for name, parts in groups.items():
+        surface = gmsh.model.addDiscreteEntity(2)
+        gmsh.model.mesh.addElementsByType(surface, 2, [], (np.concatenate(parts) + 1).ravel())  # 2: triangle
         gmsh.model.addPhysicalGroup(2, [surface], FACET_TAGS[name])
         gmsh.model.setPhysicalName(2, FACET_TAGS[name], name)
+
+
+def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
+    """Write the structured tetrahedral mesh (2 / ``scale`` divisions per side) into the current gmsh session."""
+    n, size = divisions(scale), params["size"]
+    structured_box(gmsh, (size, size, size), (n, n, n),
+                   lambda axis, at_end: "lid" if (axis == 1 and at_end) else "walls")

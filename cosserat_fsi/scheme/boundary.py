@@ -101,10 +101,16 @@ class BoundaryConditions:
         y0 = self.comm.allreduce(x[:, 1].min(), op=MPI.MIN)
         H = self.comm.allreduce(x[:, 1].max(), op=MPI.MAX) - y0
 
+        if len(zeros) == 2:  # 3D duct: the parabola in z too (mean u_mean over the inlet)
+            z0 = self.comm.allreduce(x[:, 2].min(), op=MPI.MIN)
+            W = self.comm.allreduce(x[:, 2].max(), op=MPI.MAX) - z0
+
         def profile(x):
             y = x[1] - y0
             ux = (6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic"
                   else np.full_like(y, inflow.u_mean))
+            if len(zeros) == 2 and inflow.profile == "parabolic":
+                ux = ux * 6.0 * (x[2] - z0) * (W - (x[2] - z0)) / W**2
             return np.vstack([ux] + [z(ux) for z in zeros])
 
         def lid(x):
