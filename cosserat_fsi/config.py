@@ -270,6 +270,24 @@ class BoundaryCondition(_Section):
         return [parse_expression(v) for v in self.value or ()]
 
 
+Point = Annotated[list[float], Field(min_length=2, max_length=2)]
+
+
+class ObservableSet(_Section):
+    """What a file scene reports by name (``observables``), besides energies and flow rate.
+
+    ``forces``: named boundaries whose force on the body (drag, lift: residual and surface forms) is
+    reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
+    (columns ``u_NAME``, ``v_NAME``, ``p_NAME``); ``solid_points``: material points of the solid, the solid
+    node nearest to the given reference position, moving with it (``ux_NAME``, ``uy_NAME``: its displacement).
+    """
+
+    forces: list[str] = Field(default_factory=list)
+    wetted_solid: bool = False
+    points: dict[str, Point] = Field(default_factory=dict)
+    solid_points: dict[str, Point] = Field(default_factory=dict)
+
+
 class Output(_Section):
     """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval."""
 
@@ -291,6 +309,7 @@ class Scene(_Section):
     solid: Solid | None = None
     inflow: Inflow | None = None
     boundaries: dict[str, BoundaryCondition] | None = None
+    observables: ObservableSet | None = None
     time: Time
     solver: Solver = Field(default_factory=Solver)
     output: Output = Field(default_factory=Output)
@@ -324,6 +343,11 @@ class Scene(_Section):
             hint = ("geometry.flag is solid; use geometry.flag: rigid for a fluid-only run" if flag == "solid"
                     else f"required for geometry {geo.name}")
             raise ValueError(f"solid: missing section ({hint})")
+        if self.observables is not None:
+            if geo.name != "file":
+                raise ValueError(f"observables: only for geometry file (geometry {geo.name} has its own)")
+            if self.observables.solid_points and self.solid is None:
+                raise ValueError("observables.solid_points: the scene has no solid section")
         if self.boundaries is not None:
             if geo.name != "file":
                 raise ValueError(f"boundaries: only for geometry file (geometry {geo.name} sets its own)")

@@ -41,7 +41,9 @@ class Observables:
         n = ufl.FacetNormal(mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft)
         ids = problem.facet_ids
-        body_tags = tuple(ids[b] for b in BODY
+        named = scene.observables
+        body = BODY if named is None else (*named.forces, *(("interface",) if named.wetted_solid else ()))
+        body_tags = tuple(ids[b] for b in body
                           if b in ids and self.comm.allreduce(int(np.any(ft.values == ids[b])), op=MPI.MAX))
         self.columns = []
         self._force_forms = None
@@ -52,6 +54,14 @@ class Observables:
         if sim.model.solid and scene.geometry.name in POINT_A:
             self._node_A = _owned_node(sim, _point_A(sim))
             self.columns += ["ux_A", "uy_A"]
+        self._points = self._solid_points = None
+        if named is not None and named.points:
+            self._points = (list(named.points), np.array([[*xy, 0.0] for xy in named.points.values()]))
+            self.columns += [f"{c}_{name}" for name in named.points for c in ("u", "v", "p")]
+        if named is not None and named.solid_points:
+            self._solid_points = {name: _nearest_solid_node(sim, np.asarray(xy)) for name, xy in
+                                  named.solid_points.items()}
+            self.columns += [f"{c}_{name}" for name in named.solid_points for c in ("ux", "uy")]
         self._energy_forms = None
         if sim.model.solid:
             dx = ufl.dx(domain=mesh, subdomain_data=sim.cell_tags)
@@ -84,6 +94,16 @@ class Observables:
             d = self.sim.displacement.x.array.reshape(-1, 2)
             local = d[self._node_A] if self._node_A >= 0 else np.zeros(2)
             out["ux_A"], out["uy_A"] = self.comm.allreduce(local, op=MPI.SUM)
+        if self._points is not None:
+            names, points = self._points
+            u, p = probe(self.sim.locator, [self.sim.velocity, self.sim.pressure], points, self.comm)
+            for k, name in enumerate(names):
+                out[f"u_{name}"], out[f"v_{name}"], out[f"p_{name}"] = u[k, 0], u[k, 1], p[k, 0]
+        if self._solid_points is not None:
+            d = self.sim.displacement.x.array.reshape(-1, 2)
+            for name, node in self._solid_points.items():
+                local = d[node] if node >= 0 else np.zeros(2)
+                out[f"ux_{name}"], out[f"uy_{name}"] = self.comm.allreduce(local, op=MPI.SUM)
         if self._energy_forms is not None:
             kinetic, elastic = (self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM)
                                 for f in self._energy_forms)
@@ -146,6 +166,22 @@ def _owned_node(sim, point):
     return i if found else -1
 
 
+def _nearest_solid_node(sim, point: np.ndarray) -> int:
+    """Local index of the owned solid velocity node nearest to ``point`` on the reference mesh (the one of
+    the lowest rank on a tie), −1 on the other ranks."""
+    V = sim.velocity.function_space
+    n_owned = V.dofmap.index_map.size_local
+    nodes = np.asarray(sim.problem.solid_velocity_dofs, dtype=np.int64)
+    nodes = nodes[nodes < n_owned]
+    x = V.tabulate_dof_coordinates()[nodes, :2]
+    dist = np.linalg.norm(x - point, axis=1)
+    i = int(np.argmin(dist)) if len(nodes) else -1
+    mine = float(dist[i]) if len(nodes) else np.inf
+    best = sim.comm.allgather(mine)
+    owner = int(np.argmin(best))
+    return int(nodes[i]) if sim.comm.rank == owner else -1
+
+
 def _force_forms(sim, u, T, n, ds, body_tags):
     """Forms for (drag, lift) by the residual method and by the surface integral of −T n, fluid side.
 
@@ -164,10 +200,11 @@ def _force_forms(sim, u, T, n, ds, body_tags):
         ids = sim.problem.facet_ids
         dS = ufl.Measure("dS", domain=sim.mesh, subdomain_data=sim.facet_tags)
         surface = [0 for _ in range(2)]
+        exterior = [tag for name, tag in ids.items() if tag in body_tags and name != "interface"]
         for i in range(2):  # a file scene may lack either group
-            if "cylinder" in ids:
-                surface[i] = surface[i] + chi * traction[i] * ds(ids["cylinder"])
-            if "interface" in ids:
+            for tag in exterior:
+                surface[i] = surface[i] + chi * traction[i] * ds(tag)
+            if "interface" in ids and ids["interface"] in body_tags:
                 fluid_side = chi("+") * traction[i]("+") + chi("-") * traction[i]("-")
                 surface[i] = surface[i] + fluid_side * dS(ids["interface"])
     return [compat.form(-residual(phi)) for phi in phis] + [compat.form(f) for f in surface]

@@ -123,19 +123,23 @@ INFLOW = "12*y*(0.41 - y)/0.41**2 * (1 - cos(pi*min(t, 0.1)/0.1))/2"
 
 
 def test_turek_hron_fsi3_equals_its_user_file_twin_with_boundaries(repo_root, tmp_path):
-    """The same, with the conditions written in a boundaries section: the inflow (profile and ramp) as an
-    expression of y and t, no-slip walls and cylinder, a do-nothing outlet."""
+    """The same, with the conditions written in a boundaries section (the inflow, profile and ramp, as an
+    expression of y and t; no-slip walls and cylinder; a do-nothing outlet) and the observables named: the
+    force on the cylinder and the wetted flag, the flag's tip A as a solid point (the preset's ux_A, uy_A)."""
     preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
                         ["geometry.level=0", "time.dt=0.01", "time.t_end=0.2", "inflow.ramp_time=0.1"])
     msh = MPI.COMM_WORLD.bcast(build_msh(preset.geometry) if MPI.COMM_WORLD.rank == 0 else None)
     data = preset.model_dump(mode="json")
     data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(msh)}, boundaries={
         "inlet": {"type": "velocity", "value": [INFLOW, 0]}, "outlet": {"type": "do_nothing"},
-        "walls": {"type": "no_slip"}, "cylinder": {"type": "no_slip"}})
+        "walls": {"type": "no_slip"}, "cylinder": {"type": "no_slip"}},
+        observables={"forces": ["cylinder"], "wetted_solid": True, "solid_points": {"A": [0.6, 0.2]},
+                     "points": {"B": [0.15, 0.2]}})
     twin = validate_scene(data)
     a, b = _series(preset, 20), _series(twin, 20)
     common = sorted(set(a) & set(b))
-    assert {"drag", "lift", "energy_elastic", "flow_rate"} <= set(common), common
+    assert {"drag", "lift", "drag_surface", "energy_elastic", "flow_rate", "ux_A", "uy_A"} <= set(common), common
+    assert np.abs(b["p_B"]).max() > 0 and np.all(np.isfinite(b["u_B"]))  # a probe fixed in space
     assert np.abs(a["lift"]).max() > 1e-3
     for key in common:
         assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-10 * (1 + np.abs(a[key]).max())), key
@@ -149,6 +153,7 @@ def _scene_file(folder: Path) -> Path:
                     "solid: {rho: 1.0, mu_s: 100.0}\n"
                     "boundaries: {inlet: {type: velocity, value: ['6*y*(1 - y)*min(t/0.05, 1)', 0]},\n"
                     "             outlet: {type: do_nothing}, walls: {type: no_slip}, clamp: {type: no_slip}}\n"
+                    "observables: {wetted_solid: true, points: {B: [1.5, 0.5]}, solid_points: {top: [0.9, 0.4]}}\n"
                     "time: {dt: 0.01, t_end: 0.05}\n"
                     "output: {progress: false, fields: false}\n")
     return path
@@ -163,8 +168,9 @@ def _csv(path):
 @pytest.mark.slow
 def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     """A user's .geo (an elastic block clamped to the floor; a boundaries section: no-slip 'clamp' and
-    'walls', a ramped parabolic 'inlet' expression; the interface found from the cells) runs from the
-    command line on 1 and 2 ranks with the same time series (1e-10)."""
+    'walls', a ramped parabolic 'inlet' expression; the interface found from the cells; named observables:
+    the wetted block's force, a probe, the block's top as a solid point) runs from the command line on 1 and
+    2 ranks with the same time series (1e-10)."""
     scene = _scene_file(tmp_path)
     one = run_cli("run", scene, "--out", tmp_path / "one")
     assert one.returncode == 0, one.stderr
@@ -173,6 +179,7 @@ def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     a, b = _csv(tmp_path / "one" / "timeseries.csv"), _csv(tmp_path / "two" / "timeseries.csv")
     assert set(a) == set(b) and len(a["t"]) == 5
     assert np.abs(a["flow_rate"]).max() > 0.1 and np.abs(a["energy_elastic"]).max() > 0
+    assert {"drag", "lift", "u_B", "p_B", "ux_top", "uy_top"} <= set(a) and np.abs(a["ux_top"]).max() > 0
     for key in a:
         assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-12), key
 
@@ -182,4 +189,4 @@ def test_perpendicular_flap_example_runs(repo_root):
     scene = load_scene(repo_root / "examples" / "perpendicular_flap" / "flap.yaml", ["time.t_end=0.03"])
     series = _series(scene, 3)
     assert np.all(np.isfinite(series["drag"])) and series["drag"][-1] > 0
-    assert series["energy_kinetic"][-1] > 0
+    assert series["energy_kinetic"][-1] > 0 and series["ux_tip"][-1] > 0

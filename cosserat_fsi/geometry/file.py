@@ -133,6 +133,14 @@ def check_scene(scene, names: dict[str, Any]) -> None:
             if name not in internal and name not in scene.boundaries:
                 raise InputError(f"boundaries: facet group {name!r} of {shown} has no condition (add "
                                  f"boundaries.{name}: {{type: no_slip | velocity | do_nothing | traction | slip}})")
+    if scene.observables is not None:
+        for i, name in enumerate(scene.observables.forces):
+            if name not in names["facets"] or name in internal:
+                raise InputError(f"observables.forces[{i}]: {shown} has no boundary {name!r} (it has: "
+                                 f"{', '.join(n for n in facets if n not in internal) or 'none'}; the interface: "
+                                 "observables.wetted_solid)")
+        if scene.observables.wetted_solid and not internal:
+            raise InputError(f"observables.wetted_solid: {shown} has no fluid-solid interface")
     if scene.inflow is not None and "inlet" not in names["facets"]:
         raise InputError(f"inflow: {shown} has no facet group 'inlet' (it has: "
                          f"{', '.join(sorted(names['facets'])) or 'none'})")

@@ -272,6 +272,12 @@ def _evaluate_anywhere(locator, functions, pts, comm, hint=None):
     return values, found
 
 
+def values_anywhere(locator: PointLocator, functions, points: np.ndarray, comm=MPI.COMM_WORLD):
+    """Values of ``functions`` at ``points`` (n, 3) that may lie on any rank's cells; (list of (n, size)
+    arrays, found mask). Collective."""
+    return _evaluate_anywhere(locator, functions, points, comm)
+
+
 def _value_count(f):
     shape = f.ufl_shape
     return int(np.prod(shape)) if shape else 1
