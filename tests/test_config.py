@@ -49,7 +49,8 @@ BAD = [
     ("dt_negative", None, ["time.dt=-0.1"], "time.dt: must be > 0 (got -0.1)"),
     ("t_end_below_dt", None, ["time.t_end=0.001"], "time.t_end: must be >= time.dt"),
     ("bad_geometry", None, ["geometry.name=foo"],
-     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct (got 'foo')"),
+     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct "
+     "(got 'foo')"),
     ("level_7", None, ["geometry.level=7"], "geometry.level: must be an integer 0..6 or 'seed' (got 7)"),
     ("level_float", None, ["geometry.level=1.0"], "geometry.level: must be an integer"),
     ("seed_on_channel", None, ["geometry.name=channel", "geometry.flag=null", "geometry.level=seed"],
