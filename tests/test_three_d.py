@@ -192,7 +192,8 @@ def test_micropolar_poiseuille_in_a_3d_slab():
     exact = Poiseuille3D(G=1.0, h=1.0, mu=1.0, mu_r=1.0, lambda1=1.0, L=2.0)
     errors, flow = [], []
     for level in (1, 2):
-        scene = validate_scene({"geometry": {"name": "duct", "level": level, "length": 2.0, "height": 2.0, "width": 1.0},
+        geometry = {"name": "duct", "level": level, "length": 2.0, "height": 2.0, "width": 1.0}
+        scene = validate_scene({"geometry": geometry,
                                 "fluid": {"rho": 1.0, "mu": 1.0},
                                 "micropolar": {"mu_r": 1.0, "lambda1": 1.0, "lambda2": 0.5, "inertia": 1.0},
                                 "time": {"scheme": "steady"}})

@@ -153,6 +153,7 @@ def _scene_file(folder: Path) -> Path:
                     "solid: {rho: 1.0, mu_s: 100.0}\n"
                     "boundaries: {inlet: {type: velocity, value: ['6*y*(1 - y)*min(t/0.05, 1)', 0]},\n"
                     "             outlet: {type: do_nothing}, walls: {type: no_slip}, clamp: {type: no_slip}}\n"
+                    "observables: {wetted_solid: true, points: {B: [1.5, 0.5]}, solid_points: {top: [0.9, 0.4]}}\n"
                     "time: {dt: 0.01, t_end: 0.05}\n"
                     "output: {progress: false, fields: false}\n")
     return path
@@ -167,8 +168,9 @@ def _csv(path):
 @pytest.mark.slow
 def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     """A user's .geo (an elastic block clamped to the floor; a boundaries section: no-slip 'clamp' and
-    'walls', a ramped parabolic 'inlet' expression; the interface found from the cells) runs from the
-    command line on 1 and 2 ranks with the same time series (1e-10)."""
+    'walls', a ramped parabolic 'inlet' expression; the interface found from the cells; named observables:
+    the wetted block's force, a probe, the block's top as a solid point) runs from the command line on 1 and
+    2 ranks with the same time series (1e-10)."""
     scene = _scene_file(tmp_path)
     one = run_cli("run", scene, "--out", tmp_path / "one")
     assert one.returncode == 0, one.stderr
@@ -177,6 +179,7 @@ def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
     a, b = _csv(tmp_path / "one" / "timeseries.csv"), _csv(tmp_path / "two" / "timeseries.csv")
     assert set(a) == set(b) and len(a["t"]) == 5
     assert np.abs(a["flow_rate"]).max() > 0.1 and np.abs(a["energy_elastic"]).max() > 0
+    assert {"drag", "lift", "u_B", "p_B", "ux_top", "uy_top"} <= set(a) and np.abs(a["ux_top"]).max() > 0
     for key in a:
         assert np.allclose(a[key], b[key], rtol=1e-10, atol=1e-12), key
 

@@ -52,9 +52,9 @@ MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m
 """Geometry name -> its model class."""
 _MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
-__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "Duct", "FileGeometry", "Flag", "Geometry",
-           "GeometryBase", "MODELS", "SchaeferTurek", "Square", "TurekHron", "build_msh", "default_cache_dir",
-           "facet_ids"]
+__all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "Duct", "FileGeometry", "Flag",
+           "Geometry", "GeometryBase", "MODELS", "SchaeferTurek", "Square", "TurekHron", "build_msh",
+           "default_cache_dir", "facet_ids"]
 
 log = logging.getLogger("cosserat_fsi")
 
