@@ -251,7 +251,8 @@ class Problem:
 
     def solid_residual(self, trial, test, d_star, dt) -> ufl.Form:
         """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28, or
-        the consistent linearisation with ``time.solid_linearisation: consistent``), plus the volume correction when ``solid.volume_correction``."""
+        the consistent linearisation with ``time.solid_linearisation: consistent``), plus the volume
+        correction when ``solid.volume_correction``."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
         stress = (solid.consistent_stress_residual if self.scene.time.solid_linearisation == "consistent"
                   else solid.linearised_stress_residual)
