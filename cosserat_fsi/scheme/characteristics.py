@@ -15,6 +15,9 @@ w is the mesh velocity (ALE): with w = 0 this is the fixed-mesh scheme.
 The barycentric tests and the P2 evaluation run in compiled kernels (``_kernels``, numba) when numba is
 available (``COMPILED``; ``COSSERAT_FSI_NO_NUMBA=1`` turns them off); the numpy functions here are the
 reference they reproduce operation by operation, and the fallback.
+
+Above 350 lines on purpose: the numpy reference of every compiled kernel stays beside the code that picks
+between them, so that the two paths (tested equal to round-off) are read and changed together.
 """
 
 from __future__ import annotations
