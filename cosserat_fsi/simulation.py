@@ -76,7 +76,8 @@ class Simulation:
         if prescribed_motion is not None:
             return PrescribedMotion(self.mesh, prescribed_motion, self.comm)
         if self.problem.model.moving_mesh:
-            return MeshMotion(self.mesh, self.cell_tags, self.comm, **self.scene.solid.mesh_motion.options())
+            return MeshMotion(self.mesh, self.cell_tags, self.comm, **self.scene.solid.mesh_motion.options(),
+                              wall_facets=self.problem.facets("walls"))
         return None
 
     # ------------------------------------------------------------------------------- the loop
