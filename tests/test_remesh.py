@@ -155,3 +155,88 @@ def test_resting_flag_remeshed_mid_run_stays_at_rest():
     for name, f in sim.state.functions().items():
         if not name.startswith("mesh_displacement") and name != "solid_displacement":
             assert _max(sim.comm, f.x.array) < 1e-12, name
+
+
+RUN = {**SCENE, "solid": {"rho": 1000.0, "mu_s": 5.0e4,
+                          "mesh_motion": {"remesh": {"quality": 0.95, "max_count": 2}}},  # remeshes at steps 1, 2
+       "inflow": {"u_mean": 1.0, "ramp_time": 0.05}, "time": {"dt": 0.01, "t_end": 0.08, "scheme": "characteristics2"},
+       "solver": {"reuse_factorization": False},  # a restart refactorises: exact LU on both sides
+       "output": {"every": 1, "checkpoint_every": 4, "progress": False}}
+
+
+@pytest.fixture(scope="module")
+def remeshed_runs(tmp_path_factory):
+    """The run above, and a copy restarted from its checkpoint of step 4 (after both remeshes)."""
+    import json
+    import shutil
+    import tempfile
+
+    from cosserat_fsi.app.runner import run_scene
+
+    comm = MPI.COMM_WORLD
+    root = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
+    full, cut = root / "full", root / "cut"
+    if comm.rank == 0:
+        full.mkdir()
+    comm.barrier()
+    scene = validate_scene(RUN)
+    run_scene(scene, full, comm, progress=False)
+    if comm.rank == 0:
+        shutil.copytree(full, cut)
+        meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
+        assert meta["step"] == 4 and meta["mesh"] == "meshes/remesh_002.msh" and len(meta["remeshes"]) == 2
+        lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
+        (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 1]))
+    comm.barrier()
+    run_scene(scene, cut, comm, progress=False, restart=True)
+    yield full, cut
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(root)
+
+
+@pytest.mark.mpi
+def test_restart_after_a_remesh_reproduces_the_uninterrupted_run(remeshed_runs):
+    import json
+
+    from cosserat_fsi.io import read_timeseries
+
+    full, cut = remeshed_runs
+    if MPI.COMM_WORLD.rank != 0:
+        return
+    a, b = read_timeseries(full / "timeseries.csv"), read_timeseries(cut / "timeseries.csv")
+    assert list(a) == list(b) and len(a["t"]) == len(b["t"]) == 8
+    for key in a:
+        scale = max(np.abs(a[key]).max(), 1e-30)
+        assert np.abs(a[key] - b[key]).max() <= 1e-10 * scale, key
+    for run in (full, cut):
+        summary = json.loads((run / "summary.json").read_text())
+        assert summary["status"] == "completed" and summary["remeshes"]["count"] == 2
+        event = summary["remeshes"]["events"][0]
+        assert event["t"] == pytest.approx(0.01) and event["quality_after"] > 0.5 and event["seconds"] > 0
+
+
+def test_the_fields_show_the_run_across_remeshes(remeshed_runs):
+    """VTK's XDMF reader (what ParaView uses): 9 steps, a new mesh from step 1 on, point A where
+    timeseries.csv says it is, for the uninterrupted and the restarted run."""
+    import pyvista as pv
+
+    from cosserat_fsi.io import read_timeseries
+
+    for run in remeshed_runs:
+        reader = pv.get_reader(str(run / "fields.xdmf"))
+        times, points, positions = list(reader.time_values), [], []
+        for t in times:
+            reader.set_active_time_value(t)
+            mesh = reader.read()
+            mesh = mesh[0] if isinstance(mesh, pv.MultiBlock) else mesh
+            x = np.asarray(mesh.points)[:, :2]
+            points.append(len(x))
+            ts = read_timeseries(run / "timeseries.csv")
+            k = len(positions)
+            a = np.array([0.6, 0.2]) + (np.array([ts["ux_A"][k - 1], ts["uy_A"][k - 1]]) if k else 0.0)
+            positions.append(np.linalg.norm(x - a, axis=1).min())
+            assert np.isfinite(mesh.point_data["velocity"]).all()
+        np.testing.assert_allclose(times, np.arange(9) * 0.01, atol=1e-12)
+        assert points[0] != points[1] != points[2] and points[2] == points[-1]  # the remeshes of steps 1, 2
+        assert max(positions) < 1e-12, positions

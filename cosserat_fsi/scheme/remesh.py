@@ -159,6 +159,7 @@ def _mesh_on_root(ids, coords, reference, cells, cell_tag, facets, facet_tag, fa
         renumber = np.vectorize(lambda n: number[int(n)])
         gmsh.view.remove(view)
         gmsh.model.remove()
+        path.parent.mkdir(parents=True, exist_ok=True)
         _write_msh(gmsh, all_coords, triangles, renumber(solid) if len(solid) else solid,
                    renumber(facets), facet_tag, facet_ids, path)
     finally:
