@@ -104,6 +104,7 @@ class Simulation:
         """A new fluid mesh around the current solid (scheme/remesh.py), every field and history level
         carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
         Returns (and appends to ``remeshes``) the record: t, step, reason, quality before/after, seconds."""
+        import gc
         import tempfile
         import time
 
@@ -129,6 +130,8 @@ class Simulation:
             self._rereference()
             self.stepper.restored()
             self.motion.lowest_quality = lowest
+            del old
+            gc.collect()  # the old mesh's PETSc objects (factorisations): freed now, on every rank together
         self.mesh_file = path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
                   "quality_after": self.motion.min_quality, "seconds": time.perf_counter() - start,

@@ -240,3 +240,50 @@ def test_the_fields_show_the_run_across_remeshes(remeshed_runs):
         np.testing.assert_allclose(times, np.arange(9) * 0.01, atol=1e-12)
         assert points[0] != points[1] != points[2] and points[2] == points[-1]  # the remeshes of steps 1, 2
         assert max(positions) < 1e-12, positions
+
+
+PVSCRIPT = r"""
+import json, sys
+import numpy as np
+from paraview.simple import OpenDataFile
+from paraview import servermanager
+from vtk.util.numpy_support import vtk_to_numpy
+reader = OpenDataFile(sys.argv[1])
+expected = json.loads(open(sys.argv[2]).read())
+out = {"times": list(reader.TimestepValues), "points": [], "A": []}
+for t, a in zip(out["times"], expected):
+    reader.UpdatePipeline(t)
+    data = servermanager.Fetch(reader)
+    if data.IsA("vtkMultiBlockDataSet"):
+        data = data.GetBlock(0)
+    x = vtk_to_numpy(data.GetPoints().GetData())[:, :2]
+    out["points"].append(len(x))
+    out["A"].append(float(np.linalg.norm(x - a, axis=1).min()))
+print("JSON" + json.dumps(out))
+"""
+
+
+@pytest.mark.skipif(__import__("shutil").which("pvpython") is None, reason="pvpython (python3-paraview) missing")
+def test_pvpython_shows_the_run_across_remeshes(remeshed_runs, tmp_path):
+    import json
+    import subprocess
+
+    from cosserat_fsi.io import read_timeseries
+
+    if MPI.COMM_WORLD.rank != 0:
+        return
+    full = remeshed_runs[0]
+    ts = read_timeseries(full / "timeseries.csv")
+    expected = [[0.6, 0.2]] + [[0.6 + x, 0.2 + y] for x, y in zip(ts["ux_A"], ts["uy_A"])]
+    (tmp_path / "a.json").write_text(json.dumps(expected))
+    (tmp_path / "read.py").write_text(PVSCRIPT)
+    proc = subprocess.run(["pvpython", "--force-offscreen-rendering", str(tmp_path / "read.py"),
+                           str(full / "fields.xdmf"), str(tmp_path / "a.json")],
+                          capture_output=True, text=True, timeout=300)
+    line = [x for x in proc.stdout.splitlines() if x.startswith("JSON")]
+    assert proc.returncode == 0 and line, proc.stdout + proc.stderr
+    out = json.loads(line[0][4:])
+    np.testing.assert_allclose(out["times"], np.arange(9) * 0.01, atol=1e-12)
+    points = out["points"]
+    assert points[0] != points[1] != points[2] and points[2] == points[-1]
+    assert max(out["A"]) < 1e-12, out["A"]
