@@ -80,7 +80,7 @@ def test_remesh_keeps_the_solid_and_carries_a_free_stream_exactly():
     sim = _simulation()
     comm = sim.comm
     _bend(sim)
-    before = sim.motion.min_quality
+    before = sim.motion.min_fluid_quality
     solid_before = _solid_cells(sim)
     functions = sim.state.functions()
     for name, value in FREE_STREAM.items():

@@ -50,6 +50,8 @@ class _MovingMesh:
         self.node_dof[nodes.ravel()] = dofs.ravel()
         self.ref_area = self._areas()
         self.min_quality = self.lowest_quality = None  # minimum cell quality now / since the start (all ranks)
+        self.fluid_cells = None  # mask of the local fluid cells (None: all); min_fluid_quality: theirs
+        self.min_fluid_quality = None
 
     def state_functions(self) -> dict:
         """The functions a checkpoint must keep, by name (the total displacement and velocity)."""
@@ -93,9 +95,15 @@ class _MovingMesh:
             raise DivergenceError(f"t = {t:.6g}: the mesh motion would make a cell {kind} near "
                                   f"({where[0]:.4g}, {where[1]:.4g}); try a smaller time.dt, "
                                   f"or the deformation is too large for a moving mesh")
-        quality = self.quality()
-        self.min_quality = self.comm.allreduce(float(quality.min()) if len(quality) else np.inf, op=MPI.MIN)
+        self.measure_quality()
         self.lowest_quality = min(self.min_quality, np.inf if self.lowest_quality is None else self.lowest_quality)
+
+    def measure_quality(self) -> None:
+        """``min_quality`` (all cells) and ``min_fluid_quality`` (the cells a remesh replaces), all ranks."""
+        quality = self.quality()
+        fluid = quality if self.fluid_cells is None else quality[self.fluid_cells]
+        self.min_quality, self.min_fluid_quality = (
+            self.comm.allreduce(float(q.min()) if len(q) else np.inf, op=MPI.MIN) for q in (quality, fluid))
 
 
 class MeshMotion(_MovingMesh):
@@ -114,6 +122,8 @@ class MeshMotion(_MovingMesh):
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
         self._solid_entries = (self.solid_dofs[:, None] * 2 + np.arange(2)).ravel()
+        self.fluid_cells = np.ones(len(self.ref_area), dtype=bool)
+        self.fluid_cells[solid_cells[solid_cells < len(self.ref_area)]] = False
         self.walls = WallGap(self, wall_facets, wall_gap)
         mesh.topology.create_connectivity(tdim - 1, tdim)
         boundary = dolfinx.mesh.exterior_facet_indices(mesh.topology)
