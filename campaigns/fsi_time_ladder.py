@@ -8,6 +8,8 @@ two), the observed order of the amplitude against the finest run of each ladder,
 
     python campaigns/fsi_time_ladder.py --ladder fsi3-seed --runs /tmp/ladder --md docs/perf/issue12/ladder.md
     python campaigns/fsi_time_ladder.py --read DIR [DIR ...]      # analyse finished runs only
+    python campaigns/fsi_time_ladder.py --continue DIR --seconds 1.5 --set time.quadrature_degree=12 --out D
+        # diagnosis: continue DIR's checkpoint with other options at the same δt (a restart refuses them)
 """
 
 from __future__ import annotations
@@ -104,13 +106,56 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path) -> Path:
+    """Continue the checkpoint of ``run_dir`` for ``seconds`` with ``overrides`` (same δt); write
+    ``out``/timeseries.csv (the run's series up to the checkpoint, then the new steps) and summary.json."""
+    import time as clock
+
+    from mpi4py import MPI
+
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.io.checkpoint import read_checkpoint
+    from cosserat_fsi.observables import Observables
+    from cosserat_fsi.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
+    meta, states = read_checkpoint(run_dir, comm, fingerprint)
+    scene = load_scene(run_dir / "config.yaml", overrides)
+    mesh, ct, ft, _ = load_mesh(scene, comm)
+    sim = Simulation(scene, mesh, ct, ft, comm)
+    obs = Observables(sim)
+    sim.restore(states)
+    with open(run_dir / "timeseries.csv") as f:
+        header = f.readline().strip().split(",")
+    old = np.loadtxt(run_dir / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
+    old = old[old[:, 0] <= sim.t + 1e-9]
+    rows = []
+    sim.run(sim.steps_to(sim.t + seconds),
+            observers=[lambda sim: rows.append([sim.t] + [obs.evaluate()[k] for k in header[1:]])])
+    out.mkdir(parents=True, exist_ok=True)
+    np.savetxt(out / "timeseries.csv", np.vstack([old, np.array(rows)]), delimiter=",", header=",".join(header),
+               comments="")
+    (out / "summary.json").write_text(json.dumps({"status": "completed", "overrides": overrides,
+                                                  "from": str(run_dir), "wall_time": {"per_step": float("nan")},
+                                                  "mesh": {"vertices": mesh.topology.index_map(0).size_global}}))
+    return out
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--ladder", choices=sorted(LADDERS))
     p.add_argument("--runs", type=Path, default=ROOT / "runs" / "issue12")
     p.add_argument("--read", nargs="*", type=Path, default=[])
     p.add_argument("--md", type=Path)
+    p.add_argument("--continue", dest="cont", type=Path)
+    p.add_argument("--seconds", type=float, default=1.5)
+    p.add_argument("--set", dest="sets", action="append", default=[])
+    p.add_argument("--out", type=Path)
     a = p.parse_args(argv)
+    if a.cont:
+        a.read.append(continue_with(a.cont, a.sets, a.seconds, a.out))
     outs = [run(c, cfg, base, extra, a.runs) for c, cfg, base, extra in LADDERS[a.ladder]] if a.ladder else []
     rows = [analyse(o) for o in outs + a.read if (o / "timeseries.csv").exists()]
     text = table(rows)
