@@ -70,7 +70,8 @@ def test_variants_multiply_the_ladder(tmp_path, repo_root):
                                         "           c2: {time.scheme: characteristics2, time.quadrature_degree: 6}}\n"))
     runs = _combinations(study)
     assert [run_id for _, run_id in runs] == ["dt0.1-c1", "dt0.1-c2", "dt0.05-c1", "dt0.05-c2"]
-    assert runs[3][0] == {"time.t_end": 0.3, "time.dt": 0.05, "time.scheme": "characteristics2", "time.quadrature_degree": 6}
+    assert runs[3][0] == {"time.t_end": 0.3, "time.dt": 0.05, "time.scheme": "characteristics2",
+                          "time.quadrature_degree": 6}
 
 
 def test_bad_variant_exits_2(run_cli, tmp_path, repo_root):

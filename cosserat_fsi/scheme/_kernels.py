@@ -61,6 +61,23 @@ def first_inside(points, offsets, candidates, x0, Jinv, tol, cell_limit):
 
 
 @_jit
+def _walk_one(px, py, c, x0, Jinv, neighbours, tol, cell_limit, max_steps):
+    """``walk`` for one point (px, py) from cell c: the cell found, or −1."""
+    for _ in range(max_steps):
+        dx, dy = px - x0[c, 0], py - x0[c, 1]
+        l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+        l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+        l0 = 1.0 - l1 - l2
+        if min(min(l1, l2), l0) >= -tol:
+            return c if c < cell_limit else -1
+        k = 0 if l0 <= l1 and l0 <= l2 else (1 if l1 <= l2 else 2)
+        c = neighbours[c, k]
+        if c < 0:
+            return -1
+    return -1
+
+
+@_jit
 def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     """Per point, a cell containing it found by walking from ``start`` (the hint cell) towards it:
     test the barycentric coordinates (min(λ0, λ1, λ2) ≥ −tol: found), else cross the edge opposite the
@@ -71,21 +88,8 @@ def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     n = points.shape[0]
     cells = np.full(n, -1, dtype=np.int32)
     for i in range(n):
-        c = start[i]
-        px, py = points[i, 0], points[i, 1]
-        for _ in range(max_steps):
-            dx, dy = px - x0[c, 0], py - x0[c, 1]
-            l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
-            l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
-            l0 = 1.0 - l1 - l2
-            if min(min(l1, l2), l0) >= -tol:
-                if c < cell_limit:
-                    cells[i] = c
-                break
-            k = 0 if l0 <= l1 and l0 <= l2 else (1 if l1 <= l2 else 2)
-            c = neighbours[c, k]
-            if c < 0:
-                break
+        cells[i] = _walk_one(points[i, 0], points[i, 1], start[i], x0, Jinv, neighbours, tol, cell_limit,
+                             max_steps)
     return cells
 
 
@@ -163,6 +167,67 @@ def p2_values(points, cells, x0, Jinv, dofs, values, bs: int) -> np.ndarray:
     return _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs)
 
 
+@_jit
+def _dofs6(dofs, c, bs):
+    return (dofs[c, 0] * bs, dofs[c, 1] * bs, dofs[c, 2] * bs, dofs[c, 3] * bs, dofs[c, 4] * bs, dofs[c, 5] * bs)
+
+
+@_jit
+def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neighbours,
+                    dofs_u, u_n, u_nm1, dofs_w, w_n, w_nm1, with_w, qdofs_u, out_u, qdofs_w, out_w):
+    """The BDF2 history α h = 2 f^n(x − δt u*) − ½ f^{n−1}(x − 2δt u*), u* = 2u^n − u^{n−1}, at the
+    quadrature points x (cell-major: point i is point i % nq of cell i // nq), for f = u (2-vector) and,
+    ``with_w``, ω (scalar), written into the quadrature functions' arrays ``out_u[2 qdofs_u[i] + b]``,
+    ``out_w[qdofs_w[i]]``: the operations of histories.py's numpy path in its order.
+
+    u^n, u^{n−1} at x: Σ_k φ_k(ξ_q) c_k with the reference basis ``phi`` (nq, 6) on a fixed mesh; on a
+    moving mesh (``moving``) at x located by a walk from its cell in the configurations ``loc_n``,
+    ``loc_nm1`` (x0, J⁻¹) the fields were computed on. The feet are located by a walk from the point's
+    cell in ``loc_n`` (f^n) and ``loc_nm1`` (f^{n−1}). Returns (status, u*): status 0 = done, 1 = a
+    foot not found by a walk (u* valid), 2 = x not found in an earlier configuration (moving mesh); the
+    caller does those points on the general path."""
+    n = x.shape[0]
+    status = np.zeros(n, dtype=np.int8)
+    u_star = np.empty((n, 2))
+    x0a, Ja = loc_n
+    x0b, Jb = loc_nm1
+    big = np.iinfo(np.int32).max
+    for i in range(n):
+        c = i // nq
+        px, py = x[i, 0], x[i, 1]
+        if moving:
+            ca = _walk_one(px, py, c, x0a, Ja, neighbours, tol, big, max_steps)
+            cb = _walk_one(px, py, c, x0b, Jb, neighbours, tol, big, max_steps)
+            if ca < 0 or cb < 0:
+                status[i] = 2
+                continue
+            pa, da = _basis(px, py, ca, x0a, Ja), _dofs6(dofs_u, ca, 2)
+            pb, db = _basis(px, py, cb, x0b, Jb), _dofs6(dofs_u, cb, 2)
+        else:
+            q = i % nq
+            pa = pb = (phi[q, 0], phi[q, 1], phi[q, 2], phi[q, 3], phi[q, 4], phi[q, 5])
+            da = db = _dofs6(dofs_u, c, 2)
+        s0 = 2.0 * _combine(pa, u_n, da, 0) - _combine(pb, u_nm1, db, 0)
+        s1 = 2.0 * _combine(pa, u_n, da, 1) - _combine(pb, u_nm1, db, 1)
+        u_star[i, 0], u_star[i, 1] = s0, s1
+        f1x, f1y = px - dt * s0, py - dt * s1
+        dt2 = 2.0 * dt
+        f2x, f2y = px - dt2 * s0, py - dt2 * s1
+        c1 = _walk_one(f1x, f1y, c, x0a, Ja, neighbours, tol, big, max_steps)
+        c2 = _walk_one(f2x, f2y, c, x0b, Jb, neighbours, tol, big, max_steps)
+        if c1 < 0 or c2 < 0:
+            status[i] = 1
+            continue
+        p1, d1 = _basis(f1x, f1y, c1, x0a, Ja), _dofs6(dofs_u, c1, 2)
+        p2, d2 = _basis(f2x, f2y, c2, x0b, Jb), _dofs6(dofs_u, c2, 2)
+        for b in range(2):
+            out_u[2 * qdofs_u[i] + b] = 2.0 * _combine(p1, u_n, d1, b) - 0.5 * _combine(p2, u_nm1, d2, b)
+        if with_w:
+            e1, e2 = _dofs6(dofs_w, c1, 1), _dofs6(dofs_w, c2, 1)
+            out_w[qdofs_w[i]] = 2.0 * _combine(p1, w_n, e1, 0) - 0.5 * _combine(p2, w_nm1, e2, 0)
+    return status, u_star
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel for the argument types characteristics.py passes
     (writeable and read-only point and cell arrays: quadrature nodes are read-only)."""
@@ -178,3 +243,7 @@ def warm_up() -> None:
         walk(pts, cells, x0, Jinv, neighbours, 1e-10, 1, 8)
         for bs in (1, 2, 3):
             p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6 * bs), bs)
+        qdofs = np.zeros(1, dtype=np.int32)
+        bdf2_quadrature(pts, 1, np.zeros((1, 6)), False, 0.1, 1e-10, 8, (x0, Jinv), (x0, Jinv), neighbours,
+                        dofs, np.zeros(12), np.zeros(12), dofs, np.zeros(6), np.zeros(6), False, qdofs,
+                        np.zeros(2), qdofs, np.zeros(1))

@@ -181,6 +181,12 @@ def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
                      4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
 
 
+def reference_basis(degree: int) -> np.ndarray:
+    """The P2 basis at the reference points of the quadrature rule of ``degree``, shape (nq, 6)."""
+    ref = compat.quadrature_points(degree)
+    return np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]))
+
+
 def _coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarray]:
     """The P2 coefficients of ``f`` in ``cells``, one (n, 6) array per component: a gather per component
     (np.take on a contiguous copy) is ~4× faster than one (n, 6, bs) fancy-index gather."""
@@ -365,13 +371,17 @@ class Characteristics:
 
     def at_quadrature_nodes(self, f, degree: int) -> np.ndarray:
         """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference
-        points is the same in every cell, so this is one small matrix product per cell."""
-        ref = compat.quadrature_points(degree)
-        phi_t = np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]).T)  # (6, nq)
+        points is the same in every cell, so this is Σ_k φ_k(ξ_q) c_k per cell, summed in k order from 0
+        as ``combine`` (and the compiled kernels) do; a matrix product would sum in BLAS's order."""
+        phi = reference_basis(degree)  # (nq, 6)
         cells = np.arange(len(self.locator.x0))
-        # per component: (c, 6) coefficients @ (6, nq) basis values
-        return np.stack([c @ phi_t for c in _coefficients(self.locator, f, cells)], axis=2).reshape(
-            -1, f.function_space.dofmap.index_map_bs)
+        out = []
+        for c in _coefficients(self.locator, f, cells):  # per component: (n_cells, 6) coefficients
+            total = np.zeros((len(c), len(phi)))
+            for k in range(6):
+                total += c[:, k, None] * phi[None, :, k]
+            out.append(total)
+        return np.stack(out, axis=2).reshape(-1, f.function_space.dofmap.index_map_bs)
 
     def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
         """Reorder values at local V nodes to the local nodes of S."""
