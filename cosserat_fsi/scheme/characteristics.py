@@ -22,6 +22,7 @@ between them, so that the two paths (tested equal to round-off) are read and cha
 
 from __future__ import annotations
 
+import functools
 import weakref
 
 import numpy as np
@@ -181,10 +182,14 @@ def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
                      4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
 
 
+@functools.cache
 def reference_basis(degree: int) -> np.ndarray:
-    """The P2 basis at the reference points of the quadrature rule of ``degree``, shape (nq, 6)."""
+    """The P2 basis at the reference points of the quadrature rule of ``degree``, shape (nq, 6)
+    (cached, read-only)."""
     ref = compat.quadrature_points(degree)
-    return np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]))
+    phi = np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]))
+    phi.flags.writeable = False
+    return phi
 
 
 def _coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarray]:

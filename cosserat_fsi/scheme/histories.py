@@ -147,8 +147,9 @@ class Histories:
         dofs_u = loc.dofs(fns_n[0].function_space)
         dofs_w = loc.dofs(fns_n[1].function_space) if with_w else dofs_u
         w_n, w_nm1 = (fns_n[1].x.array, fns_nm1[1].x.array) if with_w else (fns_n[0].x.array,) * 2
+        phi = reference_basis(degree)
         status, u_star = _kernels.bdf2_quadrature(
-            x, len(reference_basis(degree)), reference_basis(degree), self.moving, dt,
+            x, len(phi), phi, self.moving, dt,
             characteristics._TOL, characteristics._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
             (loc_nm1.x0, loc_nm1.Jinv_flat), loc.neighbours, dofs_u, fns_n[0].x.array, fns_nm1[0].x.array,
             dofs_w, w_n, w_nm1, with_w, qdofs[0], targets[0].x.array, qdofs[-1], targets[-1].x.array)
