@@ -137,3 +137,23 @@ def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
     for a, b in zip(ref, ours):
         assert np.isfinite(a).all() and np.isfinite(b).all()
         assert np.abs(a - b).max() <= 1e-14 * np.abs(a).max()
+
+
+def test_values_at_quadrature_nodes_compiled_equals_numpy(tmp_path, monkeypatch):
+    """Characteristics.at_quadrature_nodes: the compiled kernel = the numpy sum (bit for bit), vector and
+    scalar, and both = Function.eval at the quadrature points to round-off."""
+    mesh = _mesh(tmp_path)
+    V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))
+    S = compat.function_space(mesh, "Lagrange", 2)
+    u, p = dolfinx.fem.Function(V), dolfinx.fem.Function(S)
+    u.interpolate(lambda x: np.vstack([np.sin(3 * x[0]) * x[1], x[0] ** 2 - x[1]]))
+    p.interpolate(lambda x: np.cos(2 * x[0] + x[1]))
+    chars = Characteristics(V)
+    x, cells = chars.quadrature_nodes(6)
+    for f in (u, p):
+        values = {}
+        for compiled in ([False, True] if _kernels.ENABLED else [False]):
+            monkeypatch.setattr(characteristics, "COMPILED", compiled)
+            values[compiled] = chars.at_quadrature_nodes(f, 6)
+        assert all(np.array_equal(values[False], v) for v in values.values())
+        assert np.abs(values[False] - f.eval(x, cells).reshape(len(x), -1)).max() < 1e-12

@@ -206,6 +206,21 @@ def _scalar_at(p, k, c, here, values, dofs):
 
 
 @_jit
+def at_reference_points(phi, dofs, values, bs, n_cells):
+    """Values (n_cells·nq, bs) of a P2 field at the same reference points ``phi`` (nq, 6 basis values)
+    of every cell: Σ_k φ_k c_k in k order from 0.0 (``Characteristics.at_quadrature_nodes``)."""
+    nq = phi.shape[0]
+    out = np.empty((n_cells * nq, bs))
+    for c in range(n_cells):
+        d = _dofs6(dofs, c, bs)
+        for b in range(bs):
+            a = _coef(values, d, b)
+            for q in range(nq):
+                out[c * nq + q, b] = _sum6((phi[q, 0], phi[q, 1], phi[q, 2], phi[q, 3], phi[q, 4], phi[q, 5]), a)
+    return out
+
+
+@_jit
 def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neighbours,
                     dofs_u, u_n, u_nm1, dofs_w, w_n, w_nm1, with_w, qdofs_u, out_u, qdofs_w, out_w):
     """The BDF2 history α h = 2 f^n(x − δt u*) − ½ f^{n−1}(x − 2δt u*), u* = 2u^n − u^{n−1}, at the

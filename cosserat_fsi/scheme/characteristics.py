@@ -379,6 +379,9 @@ class Characteristics:
         points is the same in every cell, so this is Σ_k φ_k(ξ_q) c_k per cell, summed in k order from 0
         as ``combine`` (and the compiled kernels) do; a matrix product would sum in BLAS's order."""
         phi = reference_basis(degree)  # (nq, 6)
+        if COMPILED and is_p2(self.locator, f):
+            return _kernels.at_reference_points(phi, self.locator.dofs(f.function_space), f.x.array,
+                                                f.function_space.dofmap.index_map_bs, len(self.locator.x0))
         cells = np.arange(len(self.locator.x0))
         out = []
         for c in _coefficients(self.locator, f, cells):  # per component: (n_cells, 6) coefficients
