@@ -59,8 +59,8 @@ class MovingMeshXDMF:
         self.num_steps = 0
         self.steps: list[tuple[float, dict]] = []  # rank 0: (t, {dataset: (shape, dtype)}) per step
         geom = compat.geometry_dofmap(mesh)
-        if geom.shape[1] != 3:
-            raise ValueError("MovingMeshXDMF: only P1 triangle meshes are supported")
+        if geom.shape[1] not in (3, 4):
+            raise ValueError("MovingMeshXDMF: only P1 triangle and tetrahedron meshes are supported")
         self.gdim = mesh.geometry.dim
         self.n_nodes = mesh.geometry.index_map().size_local
         self.n_cells = compat.num_owned_cells(mesh)
@@ -188,7 +188,7 @@ class MovingMeshXDMF:
             gshape, gdtype = shapes["mesh/geometry"]
             lines += [f'<Grid Name="step_{step:06d}" GridType="Uniform">',
                       f'<Time Value="{t!r}"/>',
-                      f'<Topology TopologyType="Triangle" NumberOfElements="{topo.shape[0]}">',
+                      f'<Topology TopologyType="{"Triangle" if topo.shape[1] == 3 else "Tetrahedron"}" NumberOfElements="{topo.shape[0]}">',
                       _data_item(h5name, "/mesh/topology", topo.shape, topo.dtype), "</Topology>",
                       f'<Geometry GeometryType="{"XY" if gshape[1] == 2 else "XYZ"}">',
                       _data_item(h5name, f"/mesh/geometry/{step:06d}", gshape, gdtype), "</Geometry>"]
