@@ -106,23 +106,36 @@ class Micropolar(_Section):
     nodal_characteristics: bool = False
 
 
+class Remesh(_Section):
+    """Automatic remeshing (issue 13): gmsh meshes the fluid anew around the current solid when the minimum
+    cell quality 4√3|K|/Σ|e|² falls below ``quality``; ``max_count`` bounds the number of remeshes."""
+
+    quality: float = Field(gt=0, lt=1)
+    max_count: int = Field(default=1000, ge=1)
+
+
 class MeshMotionSettings(_Section):
     """How the fluid mesh follows the solid (scheme/mesh_motion.py; measured in docs/performance.md).
 
     ``method``: ``biharmonic`` (default: carries a bent flag furthest), ``elastic`` (linear elasticity) or
     ``harmonic`` (the seed's stiffened Laplace extension). ``stiffness_exponent`` χ: the operator is
     weighted by |K|^−χ so that small cells deform less; default the measured best of the method
-    (harmonic 1, elastic 1, biharmonic 0). ``poisson_ratio`` ν of the elastic extension.
+    (harmonic 1, elastic 1, biharmonic 0). ``poisson_ratio`` ν of the elastic extension. ``wall_gap``: the
+    run stops (exit 3) when the solid comes closer than this to the ``walls`` (default: a quarter of the
+    shortest wall facet). ``remesh``: remesh the fluid when the minimum cell quality falls below
+    ``remesh.quality`` (off by default; scheme/remesh.py).
     """
 
     method: Literal["harmonic", "elastic", "biharmonic"] = "biharmonic"
     stiffness_exponent: float | None = Field(default=None, ge=0, le=4)
     poisson_ratio: float = Field(default=0.0, gt=-1, lt=0.5)
+    wall_gap: PositiveFloat | None = None
+    remesh: Remesh | None = None
 
     def options(self) -> dict:
         """Keyword arguments of scheme.mesh_motion.MeshMotion."""
         exponent = {"harmonic": 1.0, "elastic": 1.0, "biharmonic": 0.0}[self.method]
-        return {"method": self.method, "poisson_ratio": self.poisson_ratio,
+        return {"method": self.method, "poisson_ratio": self.poisson_ratio, "wall_gap": self.wall_gap,
                 "stiffness_exponent": exponent if self.stiffness_exponent is None else self.stiffness_exponent}
 
 
