@@ -80,8 +80,8 @@ class Observables:
             self._flow_rate = compat.form(ufl.inner(u, n) * ds(outlet))  # ∫_outlet u·n ds
             self.columns.append("flow_rate")
         self._dp = scene.geometry.name in ("schaefer_turek", "schaefer_turek_3d")
-        self._dp_points = (DP_POINTS if scene.geometry.name == "schaefer_turek" else
-                           np.array([scene.geometry.describe()["points"][a] for a in ("a1", "a2")]))
+        self._dp_points = (np.array([scene.geometry.describe()["points"][a] for a in ("a1", "a2")])
+                           if scene.geometry.name == "schaefer_turek_3d" else DP_POINTS)
         if self._dp:
             self.columns.append("dp")
         if sim.model.micro_rotation:
