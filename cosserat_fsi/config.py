@@ -30,6 +30,7 @@ from cosserat_fsi.geometry import GEOMETRIES, MODELS, Geometry, GeometryBase
 GEOMETRY_OF_BENCHMARK = {
     "schaefer_turek_2d1": ("schaefer_turek", None),
     "schaefer_turek_2d2": ("schaefer_turek", None),
+    "schaefer_turek_3d1z": ("schaefer_turek_3d", None),
     "turek_hron_cfd1": ("turek_hron", "rigid"),
     "turek_hron_cfd2": ("turek_hron", "rigid"),
     "turek_hron_cfd3": ("turek_hron", "rigid"),
@@ -45,7 +46,7 @@ GEOMETRY_OF_BENCHMARK = {
 """Benchmark name -> (required geometry.name, required geometry.flag or None)."""
 
 Benchmark = Literal[
-    "schaefer_turek_2d1", "schaefer_turek_2d2",
+    "schaefer_turek_2d1", "schaefer_turek_2d2", "schaefer_turek_3d1z",
     "turek_hron_cfd1", "turek_hron_cfd2", "turek_hron_cfd3",
     "turek_hron_csm1", "turek_hron_csm2",
     "turek_hron_fsi1", "turek_hron_fsi2", "turek_hron_fsi3",
@@ -200,6 +201,9 @@ class Time(_Section):
     ``solve_configuration`` (BDF2 on a moving mesh): the mesh a step is solved on, the BDF2 base
     X + (4D^n − D^{n−1})/3 (``bdf_base``) or the extrapolation X + 2D^n − D^{n−1} of Ω^{n+1}
     (``extrapolated``: the solid's gradients and the interface of t^{n+1} to O(δt²), scheme/stepper.py).
+    ``corrector_passes`` (BDF2 with a solid): after the solve, move the mesh to the predicted Ω^{n+1},
+    back-track again from there, linearise the solid stress around the predicted d^{n+1} and solve again
+    (the kept factorisation preconditions it); 0 = one solve per step.
     """
 
     dt: PositiveFloat | None = None
@@ -212,6 +216,7 @@ class Time(_Section):
     newton_continuation: list[Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=lambda: [0.25, 0.5, 1.0])
     solid_linearisation: Literal["seed", "consistent"] = "seed"
     solve_configuration: Literal["bdf_base", "extrapolated"] = "bdf_base"
+    corrector_passes: int = Field(default=0, ge=0, le=5)
 
     @model_validator(mode="after")
     def _steady_defaults(self):
@@ -354,6 +359,9 @@ class Scene(_Section):
         if time.solid_linearisation == "consistent" and time.solve_configuration == "extrapolated":
             raise ValueError("time.solid_linearisation: 'consistent' linearises around the BDF2 base "
                              "configuration; with time.solve_configuration 'extrapolated' use 'seed'")
+        if time.corrector_passes and (time.scheme != "characteristics2" or not self.has_solid):
+            raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid "
+                             f"(got scheme {time.scheme}{'' if self.has_solid else ', no solid'})")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf

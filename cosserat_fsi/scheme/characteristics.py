@@ -131,6 +131,8 @@ class PointLocator:
             cells[rest] = self.locate(points[rest], owned_only)
             return cells
         offsets, candidates = compat.collision_candidates(self.tree, points)
+        if self.x0 is None:  # 3D: tetrahedra (probes only)
+            return _first_tetrahedron(self.mesh, points, offsets, candidates, self._limit(owned_only))
         if COMPILED:
             return _kernels.first_inside(np.ascontiguousarray(points), offsets, candidates, self.x0,
                                          self.Jinv_flat, _TOL, self._limit(owned_only))
@@ -146,6 +148,27 @@ class PointLocator:
         pts_in, first = np.unique(point_of[inside], return_index=True)
         cells[pts_in] = candidates[inside][first]
         return cells
+
+
+def _first_tetrahedron(mesh, points: np.ndarray, offsets: np.ndarray, candidates: np.ndarray,
+                       limit: int) -> np.ndarray:
+    """Local cell per point: the first candidate (bounding-box hit below ``limit``) of affine tetrahedra
+    whose barycentric coordinates are all ≥ −tolerance; −1 if none."""
+    cells = np.full(len(points), -1, dtype=np.int32)
+    point_of = np.repeat(np.arange(len(points)), np.diff(offsets))
+    keep = candidates < limit
+    point_of, candidates = point_of[keep], candidates[keep]
+    if len(candidates) == 0:
+        return cells
+    x = mesh.geometry.x
+    nodes = compat.geometry_dofmap(mesh)[candidates, :4]
+    x0 = x[nodes[:, 0]]
+    J = np.stack([x[nodes[:, k]] - x0 for k in (1, 2, 3)], axis=2)  # (n, 3, 3): columns edges
+    lam = np.linalg.solve(J, (points[point_of] - x0)[:, :, None])[:, :, 0]
+    inside = np.minimum(lam.min(axis=1), 1.0 - lam.sum(axis=1)) >= -_TOL
+    pts_in, first = np.unique(point_of[inside], return_index=True)
+    cells[pts_in] = candidates[inside][first]
+    return cells
 
 
 def neighbour_table(triangles: np.ndarray) -> np.ndarray:
