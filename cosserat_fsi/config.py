@@ -105,23 +105,36 @@ class Micropolar(_Section):
     nodal_characteristics: bool = False
 
 
+class Remesh(_Section):
+    """Automatic remeshing (issue 13): gmsh meshes the fluid anew around the current solid when the minimum
+    cell quality 4√3|K|/Σ|e|² falls below ``quality``; ``max_count`` bounds the number of remeshes."""
+
+    quality: float = Field(gt=0, lt=1)
+    max_count: int = Field(default=1000, ge=1)
+
+
 class MeshMotionSettings(_Section):
     """How the fluid mesh follows the solid (scheme/mesh_motion.py; measured in docs/performance.md).
 
     ``method``: ``biharmonic`` (default: carries a bent flag furthest), ``elastic`` (linear elasticity) or
     ``harmonic`` (the seed's stiffened Laplace extension). ``stiffness_exponent`` χ: the operator is
     weighted by |K|^−χ so that small cells deform less; default the measured best of the method
-    (harmonic 1, elastic 1, biharmonic 0). ``poisson_ratio`` ν of the elastic extension.
+    (harmonic 1, elastic 1, biharmonic 0). ``poisson_ratio`` ν of the elastic extension. ``wall_gap``: the
+    run stops (exit 3) when the solid comes closer than this to the ``walls`` (default: a quarter of the
+    shortest wall facet). ``remesh``: remesh the fluid when the minimum cell quality falls below
+    ``remesh.quality`` (off by default; scheme/remesh.py).
     """
 
     method: Literal["harmonic", "elastic", "biharmonic"] = "biharmonic"
     stiffness_exponent: float | None = Field(default=None, ge=0, le=4)
     poisson_ratio: float = Field(default=0.0, gt=-1, lt=0.5)
+    wall_gap: PositiveFloat | None = None
+    remesh: Remesh | None = None
 
     def options(self) -> dict:
         """Keyword arguments of scheme.mesh_motion.MeshMotion."""
         exponent = {"harmonic": 1.0, "elastic": 1.0, "biharmonic": 0.0}[self.method]
-        return {"method": self.method, "poisson_ratio": self.poisson_ratio,
+        return {"method": self.method, "poisson_ratio": self.poisson_ratio, "wall_gap": self.wall_gap,
                 "stiffness_exponent": exponent if self.stiffness_exponent is None else self.stiffness_exponent}
 
 
@@ -187,6 +200,9 @@ class Time(_Section):
     ``solve_configuration`` (BDF2 on a moving mesh): the mesh a step is solved on, the BDF2 base
     X + (4D^n − D^{n−1})/3 (``bdf_base``) or the extrapolation X + 2D^n − D^{n−1} of Ω^{n+1}
     (``extrapolated``: the solid's gradients and the interface of t^{n+1} to O(δt²), scheme/stepper.py).
+    ``corrector_passes`` (BDF2 with a solid): after the solve, move the mesh to the predicted Ω^{n+1},
+    back-track again from there, linearise the solid stress around the predicted d^{n+1} and solve again
+    (the kept factorisation preconditions it); 0 = one solve per step.
     """
 
     dt: PositiveFloat | None = None
@@ -199,6 +215,7 @@ class Time(_Section):
     newton_continuation: list[Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=lambda: [0.25, 0.5, 1.0])
     solid_linearisation: Literal["seed", "consistent"] = "seed"
     solve_configuration: Literal["bdf_base", "extrapolated"] = "bdf_base"
+    corrector_passes: int = Field(default=0, ge=0, le=5)
 
     @model_validator(mode="after")
     def _steady_defaults(self):
@@ -341,6 +358,9 @@ class Scene(_Section):
         if time.solid_linearisation == "consistent" and time.solve_configuration == "extrapolated":
             raise ValueError("time.solid_linearisation: 'consistent' linearises around the BDF2 base "
                              "configuration; with time.solve_configuration 'extrapolated' use 'seed'")
+        if time.corrector_passes and (time.scheme != "characteristics2" or not self.has_solid):
+            raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid "
+                             f"(got scheme {time.scheme}{'' if self.has_solid else ', no solid'})")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf

@@ -29,7 +29,9 @@ POINT_A = {"turek_hron": (0.6, 0.2), "flag": None}  # flag: (length, thickness/2
 class Observables:
     """Evaluates the observables of a scene from the current state of a :class:`~cosserat_fsi.simulation.Simulation`."""
 
-    def __init__(self, sim):
+    def __init__(self, sim, point_A: np.ndarray | None = None):
+        """``point_A``: where point A is now (after a remesh, the mesh's reference is no longer the
+        material's: see :meth:`point_A_now`); default the scene's."""
         self.sim = sim
         self.comm = sim.comm
         scene = sim.scene
@@ -52,7 +54,8 @@ class Observables:
             self.columns += ["drag", "lift", "drag_surface", "lift_surface"]
         self._node_A = None
         if sim.model.solid and scene.geometry.name in POINT_A:
-            self._node_A = _owned_node(sim, _point_A(sim))
+            self._node_A = _owned_node(sim, _point_A(sim) if point_A is None else point_A)
+            self._space_A = sim.velocity.function_space
             self.columns += ["ux_A", "uy_A"]
         self._points = self._solid_points = None
         if named is not None and named.points:
@@ -84,6 +87,13 @@ class Observables:
         if scene.benchmark in EXACT_BENCHMARKS and sim.exact is not None:
             self._exact = _exact_error_forms(sim)
             self.columns += [f"{name}_error" for name in self._exact]
+
+    def point_A_now(self) -> np.ndarray | None:
+        """The current position of point A (the node it was found at, on that mesh as it is now)."""
+        if self._node_A is None:
+            return None
+        x = self._space_A.tabulate_dof_coordinates()[self._node_A, :2] if self._node_A >= 0 else np.zeros(2)
+        return self.comm.allreduce(x, op=MPI.SUM)
 
     def evaluate(self) -> dict:
         out = {}

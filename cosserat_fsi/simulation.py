@@ -11,7 +11,9 @@ callbacks run once the step is complete (field output, checkpoints, progress).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from pathlib import Path
 
+import numpy as np
 from mpi4py import MPI
 
 from .scheme.boundary import BoundaryConditions
@@ -53,11 +55,18 @@ class Simulation:
             from .parallel import on_root
 
             facet_ids = on_root(comm, scene_facet_ids, scene.geometry)
+        self._prescribed_motion = prescribed_motion
         self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact, facet_ids=facet_ids)
         self.motion = self._motion(prescribed_motion)
         self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion)
         self.state.set_initial(self.problem, exact)
         self.stepper = self._stepper()
+        # automatic remeshing (solid.mesh_motion.remesh; scheme/remesh.py): the remeshes so far, where their
+        # meshes go (rank 0; the runner sets the run folder), what is told of each
+        self.remeshes: list[dict] = []
+        self.mesh_file: Path | None = None  # the .msh of the current mesh when it is a remeshed one
+        self.remesh_folder: Path | None = None
+        self.on_remesh: list[Callable[[Simulation, dict], None]] = []
 
     def _stepper(self):
         """The scheme: characteristics (first order or BDF2), or a steady solver."""
@@ -76,14 +85,85 @@ class Simulation:
         if prescribed_motion is not None:
             return PrescribedMotion(self.mesh, prescribed_motion, self.comm)
         if self.problem.model.moving_mesh:
-            return MeshMotion(self.mesh, self.cell_tags, self.comm, **self.scene.solid.mesh_motion.options())
+            return MeshMotion(self.mesh, self.cell_tags, self.comm, **self.scene.solid.mesh_motion.options(),
+                              wall_facets=self.problem.facets("walls"))
         return None
 
     # ------------------------------------------------------------------------------- the loop
     def step(self, observers: Iterable[Callback] = ()) -> None:
-        """One time step; ``observers(sim)`` after the solve, on the mesh it was solved on."""
+        """One time step; ``observers(sim)`` after the solve, on the mesh it was solved on; then a remesh if
+        the cells became too poor (``solid.mesh_motion.remesh``)."""
         observers = tuple(observers)
         self.stepper.advance(observe=(lambda: [o(self) for o in observers]) if observers else None)
+        settings = self.scene.solid.mesh_motion.remesh if self.scene.solid is not None else None
+        if (settings is not None and isinstance(self.motion, MeshMotion) and self.motion.min_quality is not None
+                and self.motion.min_quality < settings.quality and len(self.remeshes) < settings.max_count):
+            self.remesh(f"minimum cell quality {self.motion.min_quality:.3g} < {settings.quality:g}")
+
+    def remesh(self, reason: str = "requested") -> dict:
+        """A new fluid mesh around the current solid (scheme/remesh.py), every field and history level
+        carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
+        Returns (and appends to ``remeshes``) the record: t, step, reason, quality before/after, seconds."""
+        import gc
+        import tempfile
+        import time
+
+        from . import compat
+        from .scheme.remesh import remesh_msh
+        from .scheme.transfer import interpolator
+
+        start = time.perf_counter()
+        before = self.motion.min_quality
+        folder = self.remesh_folder
+        if folder is None:
+            folder = self.comm.bcast(tempfile.mkdtemp(prefix="cosserat-fsi-remesh-") if self.comm.rank == 0
+                                     else None, root=0)
+        path = Path(folder) / f"remesh_{len(self.remeshes) + 1:03d}.msh"
+        with self.timers("remesh"):
+            remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self.motion.X0, self.problem.facet_ids, path,
+                       self.comm)
+            mesh, cell_tags, facet_tags = compat.read_msh(path, self.comm, gdim=2)
+            old = self.state
+            lowest = self.motion.lowest_quality
+            self._adopt(mesh, cell_tags, facet_tags)
+            old.transfer_to(self.state, interpolator(self.comm))
+            self._rereference()
+            self.stepper.restored()
+            self.motion.lowest_quality = lowest
+            del old
+            gc.collect()  # the old mesh's PETSc objects (factorisations): freed now, on every rank together
+        self.mesh_file = path
+        record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
+                  "quality_after": self.motion.min_quality, "seconds": time.perf_counter() - start,
+                  "cells": mesh.topology.index_map(2).size_global, "mesh": path.name}
+        self.remeshes.append(record)
+        for callback in self.on_remesh:
+            callback(self, record)
+        return record
+
+    def _adopt(self, mesh, cell_tags, facet_tags) -> None:
+        """Problem, mesh motion, state and stepper on another mesh of the scene (state not set)."""
+        self.mesh, self.cell_tags, self.facet_tags = mesh, cell_tags, facet_tags
+        self.problem = Problem(self.scene, mesh, cell_tags, facet_tags, exact=self.exact,
+                               facet_ids=self.problem.facet_ids)
+        self.motion = self._motion(self._prescribed_motion)
+        self.state = State(self.problem, SCHEMES[self.scene.time.scheme], self.motion)
+        self.stepper = self._stepper()
+
+    def _rereference(self) -> None:
+        """After a transfer onto a new mesh, which is its own reference: the total mesh displacement D^n
+        becomes zero and the earlier configurations D^{n−1}, Ω^n, Ω^{n−1} are relative to the new mesh
+        (the carried values minus the carried D^n, so each earlier configuration is the image of the new
+        nodes under the old mesh's piecewise-linear motion)."""
+        m, state = self.motion, self.state
+        D = m.displacement.x.array.copy()
+        for level in (state.mesh_displacement_prev, state.configuration_n, state.configuration_nm1):
+            if level is not None:
+                level.x.array[:] -= D
+        m.displacement.x.array[:] = 0.0
+        m.solid_displacement.x.array[:] = 0.0
+        quality = m.quality()
+        m.min_quality = self.comm.allreduce(float(quality.min()) if len(quality) else np.inf, op=MPI.MIN)
 
     def run(self, n_steps: int, observers: Iterable[Callback] = (), after_step: Iterable[Callback] = ()) -> None:
         """Step until ``step_count == n_steps`` (continuing from a restored state)."""

@@ -51,6 +51,8 @@ BAD = [
     ("consistent_on_extrapolated", None, ["time.solid_linearisation=consistent",
                                           "time.solve_configuration=extrapolated"],
      "time.solid_linearisation: 'consistent' linearises around the BDF2 base configuration"),
+    ("corrector_on_first_order", None, ["time.corrector_passes=1"],
+     "time.corrector_passes: needs time.scheme 'characteristics2' and a solid"),
     ("bad_geometry", None, ["geometry.name=foo"],
      "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct "
      "(got 'foo')"),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -96,8 +97,8 @@ def test_bdf2_on_a_moving_mesh_is_second_order():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("options", [{}, {"solid_linearisation": "consistent"},
-                                     {"solve_configuration": "extrapolated"}],
-                         ids=["seed", "consistent", "extrapolated"])
+                                     {"solve_configuration": "extrapolated"}, {"corrector_passes": 1}],
+                         ids=["seed", "consistent", "extrapolated", "corrector"])
 def test_solid_time_order(options):
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
@@ -202,6 +203,27 @@ def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "diverged"
     assert len((out / "timeseries.csv").read_text().splitlines()) >= 2  # the steps before it are kept
+
+
+def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
+    """A disk sinking onto the box's floor (issue 13): within ``wall_gap`` of the wall the run stops with
+    exit 3 and a message naming the wall, the place and the time; the output so far is kept."""
+    cfg = tmp_path / "box.yaml"
+    cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
+                   "solid: {rho: 10.0, mu_s: 100.0, gravity: 2.0, mesh_motion: {wall_gap: 0.1}}\n"
+                   "time: {dt: 0.01, t_end: 2.0}\n")
+    out = tmp_path / "out"
+    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
+    assert proc.returncode == 3, proc.stderr
+    line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
+    assert len(line) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    match = re.search(r"the solid is within 0\.1 of the wall near \(([-\d.e]+), ([-\d.e]+)\) at t = ([\d.]+)",
+                      line[0])
+    assert match, line[0]
+    x, y, t = map(float, match.groups())
+    assert abs(x - 0.5) < 0.05 and 0.09 < y < 0.1 and 0.3 < t < 1.0  # the bottom of the disk, on its way down
+    assert json.loads((out / "summary.json").read_text())["status"] == "diverged"
+    assert len((out / "timeseries.csv").read_text().splitlines()) >= 10
 
 
 @pytest.mark.mpi

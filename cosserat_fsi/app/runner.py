@@ -83,13 +83,20 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     if restart:
         meta, state = agree(comm, read_checkpoint, out_dir, comm, fingerprint)
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
-    _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     n_vertices = mesh.topology.index_map(0).size_global
+    remeshed = restart and meta.get("mesh") is not None  # the checkpoint's mesh is a remeshed one
+    if remeshed:
+        mesh, cell_tags, facet_tags = compat.read_msh(out_dir / meta["mesh"], comm, gdim=scene.geometry.DIM)
+    _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
-    observables = Observables(sim)  # on the reference mesh (point A is found there)
+    sim.remesh_folder = out_dir / "meshes"
+    # on the reference mesh (point A is found there; on a remeshed mesh where the checkpoint saw it)
+    observables = Observables(sim, np.asarray(meta["point_A"]) if remeshed and meta.get("point_A") else None)
     _signal_handlers(handlers)
     if restart:
         agree(comm, sim.restore, state)
+        if remeshed:
+            sim.mesh_file, sim.remeshes = out_dir / meta["mesh"], list(meta.get("remeshes", []))
         on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
                 scene.output.fields)
 
@@ -117,9 +124,29 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
 
     def checkpoint():
         with sim.timers("checkpoint"):
+            remesh = {}
+            if sim.mesh_file is not None:  # a restart reads this mesh (and finds A where it was on it)
+                remesh = {"mesh": str(Path(sim.mesh_file).relative_to(out_dir)), "remeshes": sim.remeshes,
+                          "point_A": point_A_on_mesh}
             write_checkpoint(out_dir, sim, comm, {
                 "fingerprint": fingerprint, "rows": sim.step_count,
-                "field_steps": fields.num_steps if fields is not None else earlier_field_steps})
+                "field_steps": fields.num_steps if fields is not None else earlier_field_steps, **remesh})
+
+    point_A_on_mesh = meta.get("point_A") if remeshed else None  # point A on the remeshed mesh's reference
+
+    def remeshed_to(sim, record):  # a new mesh: observables on it, a new topology in the fields
+        nonlocal observables, point_A_on_mesh
+        _signal_handlers(handlers)
+        point_A = observables.point_A_now()
+        point_A_on_mesh = None if point_A is None else point_A.tolist()
+        observables = Observables(sim, point_A)
+        if fields is not None:
+            fields.new_mesh(sim.mesh)
+        log.info("t = %.6g: remesh %d (%s): minimum cell quality %.4g -> %.4g, %d cells, %.3g s", record["t"],
+                 len(sim.remeshes), record["reason"], record["quality_before"], record["quality_after"],
+                 record["cells"], record["seconds"])
+
+    sim.on_remesh.append(remeshed_to)
 
     def observe(sim):  # after the solve, on the mesh the step was solved on
         failpoint("observe")  # the fault suite's fault inside a collective step (MPI_Abort path)
@@ -314,6 +341,8 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             summary["omega_max"] = float(np.max(series["omega_max"]))  # max over the run of max |ω|
         if getattr(sim.motion, "lowest_quality", None) is not None:  # 4√3|K|/Σ|e|², lowest over the run
             summary["mesh_quality"] = {"final": sim.motion.min_quality, "lowest": sim.motion.lowest_quality}
+        if scene.solid is not None and scene.solid.mesh_motion.remesh is not None:
+            summary["remeshes"] = {"count": len(sim.remeshes), "events": sim.remeshes}
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
         atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))

@@ -5,7 +5,8 @@ Each step stores the current mesh geometry and the fields at the mesh vertices, 
 flushed and the .xdmf file atomically replaced: a run killed at any moment leaves a readable pair that
 lists only flushed steps. ParaView opens the .xdmf directly (Xdmf3 reader).
 
-HDF5 layout: ``/mesh/topology`` (int64, cells x 3), ``/mesh/geometry/<step:06d>``,
+HDF5 layout: ``/mesh/topology`` (int64, cells x 3; after a remesh ``/mesh/topology_<k:03d>`` too, named by
+the ``topology`` attribute of the steps that use it), ``/mesh/geometry/<step:06d>``,
 ``/point/<name>/<step:06d>``, ``/cell/<name>/<step:06d>``.
 """
 
@@ -58,26 +59,11 @@ class MovingMeshXDMF:
         self.h5path = self.path.with_suffix(".h5")
         self.num_steps = 0
         self.steps: list[tuple[float, dict]] = []  # rank 0: (t, {dataset: (shape, dtype)}) per step
-        geom = compat.geometry_dofmap(mesh)
-        if geom.shape[1] != 3:
-            raise ValueError("MovingMeshXDMF: only P1 triangle meshes are supported")
-        self.gdim = mesh.geometry.dim
-        self.n_nodes = mesh.geometry.index_map().size_local
-        self.n_cells = compat.num_owned_cells(mesh)
-        node_ids = np.asarray(mesh.geometry.input_global_indices, np.int64)
-        cell_ids = np.asarray(mesh.topology.original_cell_index, np.int64)[: self.n_cells]
-        # rank 0: owned entities of all ranks, sorted by original index
-        all_nodes = comm.gather(node_ids[: self.n_nodes], root=0)
-        all_cells = comm.gather(cell_ids, root=0)
-        cells = comm.gather(node_ids[geom[: self.n_cells]], root=0)
+        self.topology = "mesh/topology"  # the dataset of the current mesh's cells (a remesh adds one)
         self._p1: dict[tuple, tuple] = {}  # value shape -> (P1 space, P1 function)
         self.h5 = self.node_order = self.cell_order = None
-        if comm.rank == 0:
-            nodes = np.concatenate(all_nodes)
-            self.node_order = np.argsort(nodes, kind="stable")
-            self.cell_order = np.argsort(np.concatenate(all_cells), kind="stable")
-            sorted_nodes = nodes[self.node_order]
-            topology = np.searchsorted(sorted_nodes, np.concatenate(cells)[self.cell_order])
+        topology = self._set_mesh(mesh)
+
         def open_files():
             if keep_steps is None:
                 try:
@@ -93,6 +79,42 @@ class MovingMeshXDMF:
 
         self.num_steps = on_root(comm, open_files, step="fields.open")
 
+    def _set_mesh(self, mesh) -> np.ndarray | None:
+        """Numbering of ``mesh``'s owned nodes and cells; rank 0: its topology in original numbering."""
+        comm = self.comm
+        geom = compat.geometry_dofmap(mesh)
+        if geom.shape[1] != 3:
+            raise ValueError("MovingMeshXDMF: only P1 triangle meshes are supported")
+        self.mesh, self._p1 = mesh, {}
+        self.gdim = mesh.geometry.dim
+        self.n_nodes = mesh.geometry.index_map().size_local
+        self.n_cells = compat.num_owned_cells(mesh)
+        node_ids = np.asarray(mesh.geometry.input_global_indices, np.int64)
+        cell_ids = np.asarray(mesh.topology.original_cell_index, np.int64)[: self.n_cells]
+        # rank 0: owned entities of all ranks, sorted by original index
+        all_nodes = comm.gather(node_ids[: self.n_nodes], root=0)
+        all_cells = comm.gather(cell_ids, root=0)
+        cells = comm.gather(node_ids[geom[: self.n_cells]], root=0)
+        if comm.rank != 0:
+            return None
+        nodes = np.concatenate(all_nodes)
+        self.node_order = np.argsort(nodes, kind="stable")
+        self.cell_order = np.argsort(np.concatenate(all_cells), kind="stable")
+        sorted_nodes = nodes[self.node_order]
+        return np.searchsorted(sorted_nodes, np.concatenate(cells)[self.cell_order])
+
+    def new_mesh(self, mesh) -> None:
+        """The run goes on on another mesh (a remesh): the next steps use its topology. Collective."""
+        topology = self._set_mesh(mesh)
+
+        def write():
+            k = sum(1 for name in self.h5["mesh"] if name.startswith("topology"))
+            self.topology = f"mesh/topology_{k:03d}"
+            self.h5.create_dataset(self.topology, data=topology.astype(np.int64))
+            self.h5.flush()
+
+        on_root(self.comm, write, step="fields.new_mesh")
+
     def _reopen(self, topology: np.ndarray, keep: int):
         """Rank 0: open the existing pair, drop the steps after the first ``keep``, and continue."""
         import re
@@ -100,8 +122,10 @@ class MovingMeshXDMF:
         try:
             times = [float(t) for t in re.findall(r'<Time Value="([^"]+)"', self.path.read_text())]
             self.h5 = h5py.File(self.h5path, "a")
-            ok = (len(times) >= keep and "mesh/topology" in self.h5
-                  and np.array_equal(self.h5["mesh/topology"][:], topology))
+            stored = sorted(f"mesh/{n}" for n in self.h5["mesh"] if n.startswith("topology"))
+            same = [n for n in stored if np.array_equal(self.h5[n][:], topology)]
+            ok = len(times) >= keep and bool(same)
+            self.topology = same[-1] if same else self.topology
         except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ...; a locked or damaged file)
             ok = False
         if not ok:
@@ -120,6 +144,8 @@ class MovingMeshXDMF:
                 name = f"{key}/{step:06d}"
                 if name in self.h5:
                     shapes[key] = (self.h5[name].shape, self.h5[name].dtype)
+                    if key == "mesh/geometry":
+                        shapes["topology"] = str(self.h5[name].attrs.get("topology", "mesh/topology"))
             self.steps.append((times[step], shapes))
         self.h5.flush()
         self._write_xdmf()
@@ -169,8 +195,11 @@ class MovingMeshXDMF:
                 shapes = {}
                 for key, a in data.items():
                     a = a if key == "mesh/geometry" else _vec3(a)
-                    self.h5.create_dataset(f"{key}/{step:06d}", data=a)
+                    dataset = self.h5.create_dataset(f"{key}/{step:06d}", data=a)
                     shapes[key] = (a.shape, a.dtype)
+                    if key == "mesh/geometry" and self.topology != "mesh/topology":
+                        dataset.attrs["topology"] = self.topology
+                shapes["topology"] = self.topology
                 self.h5.flush()
                 self.steps.append((float(t), shapes))
                 self._write_xdmf()
@@ -181,20 +210,21 @@ class MovingMeshXDMF:
 
     def _write_xdmf(self):
         h5name = self.h5path.name
-        topo = self.h5["mesh/topology"]
         lines = ['<?xml version="1.0"?>', '<Xdmf Version="3.0">', "<Domain>",
                  '<Grid Name="mesh" GridType="Collection" CollectionType="Temporal">']
         for step, (t, shapes) in enumerate(self.steps):
             gshape, gdtype = shapes["mesh/geometry"]
+            topo = self.h5[shapes.get("topology", "mesh/topology")]
             lines += [f'<Grid Name="step_{step:06d}" GridType="Uniform">',
                       f'<Time Value="{t!r}"/>',
                       f'<Topology TopologyType="Triangle" NumberOfElements="{topo.shape[0]}">',
-                      _data_item(h5name, "/mesh/topology", topo.shape, topo.dtype), "</Topology>",
+                      _data_item(h5name, "/" + topo.name.lstrip("/"), topo.shape, topo.dtype), "</Topology>",
                       f'<Geometry GeometryType="{"XY" if gshape[1] == 2 else "XYZ"}">',
                       _data_item(h5name, f"/mesh/geometry/{step:06d}", gshape, gdtype), "</Geometry>"]
-            for key, (shape, dtype) in shapes.items():
-                if key == "mesh/geometry":
+            for key, item in shapes.items():
+                if key in ("mesh/geometry", "topology"):
                     continue
+                shape, dtype = item
                 center = "Node" if key.startswith("point/") else "Cell"
                 kind = "Scalar" if len(shape) == 1 else ("Vector" if shape[1] == 3 else "Matrix")
                 lines += [f'<Attribute Name="{key.split("/", 1)[1]}" AttributeType="{kind}" '

@@ -36,6 +36,22 @@ def linearised_stress_residual(u, v, d_star, *, mu_s, dt, dx_solid) -> ufl.Form:
     return 0.5 * mu_s * ufl.inner(strain_measure(d_star) + dt * (D(u) - H.T * G - G.T * H), D(v)) * dx_solid
 
 
+def corrector_stress_residual(u, v, d_star, d_predicted, *, mu_s, dt, dx_solid) -> ufl.Form:
+    """The solid terms of seed eq. (31) for a corrector pass: d^{n+1} = d* + δt u^{n+1} as in
+    :func:`linearised_stress_residual`, but the strain measure linearised around the predicted
+    d^{n+1} (``d_predicted``, on the predicted configuration Ω^{n+1} the pass is assembled on), one
+    Newton step of S(d) = Dd − GᵀG:
+
+    ½ μ_s ∫_s [S(d̂) + Dδ − ∇δᵀĜ − Ĝᵀ∇δ] : Dũ,   δ = d* + δt u − d̂,  Ĝ = ∇d̂.
+
+    With d̂ = d* it is eq. (28) (the predictor); its error is quadratic in d^{n+1} − d̂.
+    """
+    G = ufl.grad(d_predicted)
+    delta = d_star + dt * u - d_predicted
+    H = ufl.grad(delta)
+    return 0.5 * mu_s * ufl.inner(strain_measure(d_predicted) + D(delta) - H.T * G - G.T * H, D(v)) * dx_solid
+
+
 def consistent_stress_residual(u, v, d_star, *, mu_s, dt, dx_solid) -> ufl.Form:
     """The solid terms of seed eq. (31) linearised consistently around d* on the configuration the step is
     assembled on (Ω^n, or BDF2's Ω*), with d^{n+1} = d* + δt u^{n+1} at the material points and x^{n+1} =

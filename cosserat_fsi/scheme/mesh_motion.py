@@ -102,7 +102,10 @@ class MeshMotion(_MovingMesh):
     """Solid vertices follow the material (δt u^{n+1} per step), fluid vertices the harmonic extension."""
 
     def __init__(self, mesh, cell_tags, comm=MPI.COMM_WORLD, stiffening: bool = True, method: str = "harmonic",
-                 stiffness_exponent: float = 1.0, poisson_ratio: float = 0.0):
+                 stiffness_exponent: float = 1.0, poisson_ratio: float = 0.0, wall_facets: np.ndarray | None = None,
+                 wall_gap: float | None = None):
+        """``wall_facets``: local facets of the channel's walls (the solid must keep ``wall_gap`` from them;
+        default gap: a quarter of the shortest wall facet)."""
         super().__init__(mesh, comm)
         self.method = method
         M, tdim = self.M, mesh.topology.dim
@@ -111,6 +114,7 @@ class MeshMotion(_MovingMesh):
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
         self._solid_entries = (self.solid_dofs[:, None] * 2 + np.arange(2)).ravel()
+        self.walls = WallGap(self, wall_facets, wall_gap)
         mesh.topology.create_connectivity(tdim - 1, tdim)
         boundary = dolfinx.mesh.exterior_facet_indices(mesh.topology)
         outer = dolfinx.fem.locate_dofs_topological(M, tdim - 1, boundary)
@@ -195,7 +199,51 @@ class MeshMotion(_MovingMesh):
         s = self.solid_displacement.x.array
         s_star = s[entries] if base is None else base[entries]
         s[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
+        self.walls.check(s, t)
         return self._apply(self.extend(s), dt, t)
+
+
+class WallGap:
+    """The solid must stay ``gap`` away from the channel's walls: closer, no fluid mesh between them can
+    carry the flow (a contact problem this scheme does not model), so the run stops (exit 3) naming where."""
+
+    def __init__(self, motion: MeshMotion, facets: np.ndarray | None, gap: float | None):
+        comm, mesh = motion.comm, motion.mesh
+        local = _facet_segments(mesh, facets) if facets is not None else np.zeros((0, 2, 2))
+        self.segments = np.concatenate(comm.allgather(local))  # the walls do not move: all ranks keep them
+        lengths = np.linalg.norm(self.segments[:, 1] - self.segments[:, 0], axis=1)
+        self.gap = gap if gap is not None else 0.25 * float(lengths.min()) if len(lengths) else 0.0
+        self.comm, self.motion = comm, motion
+        n = len(motion.displacement.x.array) // 2
+        X = np.zeros((n, 2))
+        X[motion.node_dof[: len(motion.X0)]] = motion.X0
+        dofs = motion.solid_dofs[motion.solid_dofs < motion.M.dofmap.index_map.size_local]
+        if len(self.segments):  # solid vertices on a wall from the start (attached) are not checked
+            dofs = dofs[self.distance(X[dofs])[0] > self.gap]
+        self.dofs, self.X = dofs, X[dofs]
+
+    def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Distance of each point to the nearest wall segment, and that segment's index."""
+        a, b = self.segments[:, 0], self.segments[:, 1]
+        ab = b - a
+        rel = points[:, None, :] - a[None]
+        s = np.clip((rel * ab[None]).sum(2) / (ab * ab).sum(1)[None], 0.0, 1.0)
+        dist = np.linalg.norm(rel - s[..., None] * ab[None], axis=2)
+        nearest = dist.argmin(axis=1)
+        return dist[np.arange(len(points)), nearest], nearest
+
+    def check(self, solid_displacement: np.ndarray, t: float) -> None:
+        """DivergenceError if a solid vertex at X + displacement (P1 dof array) is within the gap of a wall."""
+        if not len(self.segments):
+            return
+        x = self.X + solid_displacement.reshape(-1, 2)[self.dofs]
+        dist = self.distance(x)[0] if len(x) else np.zeros(0)
+        worst = (float(dist.min()), tuple(x[int(dist.argmin())])) if len(dist) else (np.inf, None)
+        gap, where = min(self.comm.allgather(worst), key=lambda w: w[0])
+        if gap < self.gap:
+            raise DivergenceError(f"the solid is within {self.gap:.3g} of the wall near ({where[0]:.4g}, "
+                                  f"{where[1]:.4g}) at t = {t:.6g} (gap {gap:.3g}): no fluid mesh can carry "
+                                  "the flow between them")
 
 
 class PrescribedMotion(_MovingMesh):
@@ -224,6 +272,17 @@ def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
     area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     quality = 4.0 * np.sqrt(3.0) * area / ((e1 ** 2).sum(1) + (e2 ** 2).sum(1) + (e3 ** 2).sum(1))
     return quality if orientation is None else quality * orientation
+
+
+def _facet_segments(mesh, facets: np.ndarray) -> np.ndarray:
+    """The end points (k, 2, 2) of the given local facets, on the current mesh."""
+    top = mesh.topology
+    top.create_connectivity(1, 0)
+    top.create_connectivity(2, 0)
+    vertex_node = np.empty(top.index_map(0).size_local + top.index_map(0).num_ghosts, dtype=np.int64)
+    vertex_node[top.connectivity(2, 0).array.reshape(-1, 3)] = compat.geometry_dofmap(mesh)[:, :3]
+    ends = top.connectivity(1, 0).array.reshape(-1, 2)[np.asarray(facets, dtype=np.int64)]
+    return mesh.geometry.x[vertex_node[ends], :2].copy()
 
 
 def _cell_area(mesh):

@@ -242,14 +242,19 @@ class Problem:
                                              ds=ds(tuple(self.facet_tag_values(*walls))), mesh=self.mesh)
         return F
 
-    def solid_residual(self, trial, test, d_star, dt) -> ufl.Form:
+    def solid_residual(self, trial, test, d_star, dt, d_predicted=None) -> ufl.Form:
         """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28, or
-        the consistent linearisation with ``time.solid_linearisation: consistent``), plus the volume
+        the consistent linearisation with ``time.solid_linearisation: consistent``), or around
+        ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
         correction when ``solid.volume_correction``."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
-        stress = (solid.consistent_stress_residual if self.scene.time.solid_linearisation == "consistent"
-                  else solid.linearised_stress_residual)
-        F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
+        if d_predicted is not None:
+            F = solid.corrector_stress_residual(u, v, d_star, d_predicted, mu_s=self.mu_s, dt=dt,
+                                                dx_solid=self.dx_solid)
+        else:
+            stress = (solid.consistent_stress_residual if self.scene.time.solid_linearisation == "consistent"
+                      else solid.linearised_stress_residual)
+            F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
         if self.scene.solid.volume_correction:
             F = F + solid.volume_correction_residual(q, d_star, dt=dt, dx_solid=self.dx_solid)
         return F

@@ -59,9 +59,16 @@ class Stepper:
                                    else None)
         # ... and the BDF2 base (4D^n − D^{n−1})/3 the solid vertices move on from (time.solve_configuration)
         self.extrapolate = self.solve_displacement is not None and scene.time.solve_configuration == "extrapolated"
-        self.motion_base = np.zeros_like(self.solve_displacement.x.array) if self.extrapolate else None
+        # time.corrector_passes: re-solve on the predicted Ω^{n+1} around the predicted d^{n+1}
+        self.passes = int(scene.time.corrector_passes) if self.solve_displacement is not None else 0
+        self.motion_base = (np.zeros_like(self.solve_displacement.x.array) if self.extrapolate or self.passes
+                            else None)
         self.solution = dolfinx.fem.Function(problem.space.W, name="state")
         self.a_form, self.L_form = self._forms()
+        if self.passes:
+            self.d_predicted = dolfinx.fem.Function(state.displacement.function_space)
+            self.u_predicted = dolfinx.fem.Function(state.velocity.function_space)
+            self.a_corrector, self.L_corrector = self._forms(self.d_predicted)
         self.A = None
         self._alpha_of_A = None
         self.b = compat.create_vector(self.L_form, problem.space.W)
@@ -90,7 +97,7 @@ class Stepper:
     def check(self) -> None:
         """Nothing to report after the run: a time step that fails raises at once."""
 
-    def _forms(self):
+    def _forms(self, d_predicted=None):
         pr, h = self.problem, self.histories
         trial, test = ufl.TrialFunctions(pr.space.W), ufl.TestFunctions(pr.space.W)
         u, _, omega = pr.split(trial)
@@ -98,7 +105,7 @@ class Stepper:
         F = pr.residual(trial, test, acceleration=self.acceleration(u), micro_acceleration=micro,
                         dx_inertia=h.dx_inertia)
         if pr.model.solid:
-            F = F + pr.solid_residual(trial, test, self.d_star, self.solid_dt)
+            F = F + pr.solid_residual(trial, test, self.d_star, self.solid_dt, d_predicted)
         return compat.form(ufl.lhs(F)), compat.form(ufl.rhs(F))
 
     # --------------------------------------------------------------------------------- one step
@@ -125,6 +132,8 @@ class Stepper:
             self.solver.solve(self.b, compat.petsc_vec(self.solution))
             self.solution.x.scatter_forward()
         self._check_finite(t_new)
+        for _ in range(self.passes if alpha != 1.0 else 0):
+            self._correct(alpha, t_new)
         state.shift(self.solution, self.problem.space)
         if self.d_star is not None:
             self._update_displacement(alpha)
@@ -152,12 +161,48 @@ class Stepper:
             self.solver.set_operator(self.A)
             self._alpha_of_A = alpha
 
-    def _vector(self):
+    def _correct(self, alpha: float, t_new: float):
+        """One corrector pass (``time.corrector_passes``): with the solution as the prediction of u^{n+1},
+        move the mesh to the predicted Ω^{n+1} (solid vertices s* + (δt/α) u, extension as in
+        ``motion.move``), back-track from its quadrature points, linearise the solid stress around the
+        predicted d^{n+1} = d* + (δt/α) u and solve again (the solver keeps its factorisation as the
+        preconditioner). The configuration and the state's time levels stay those of the step."""
+        m, dt_a = self.motion, self.dt / alpha
+        space = self.problem.space
+        with self.timers("mesh_motion"):
+            self.u_predicted.x.array[:] = self.solution.x.array[space.dofs("velocity")]
+            m._u_P1.interpolate(self.u_predicted)
+            s = self.motion_base.copy()
+            entries = m._solid_entries
+            s[entries] += dt_a * m._u_P1.x.array[entries]
+            self.solve_displacement.x.array[:] = m.extend(s)
+            m.place(self.solve_displacement.x.array, self.state.t)
+            self.histories.mesh_moved(rebuild=True)
+        nodes = self.problem.solid_velocity_dofs
+        d_hat = self.d_predicted.x.array
+        d_hat[:] = self.d_star.x.array
+        d_hat.reshape(-1, 2)[nodes] += dt_a * self.u_predicted.x.array.reshape(-1, 2)[nodes]
+        self.d_predicted.x.scatter_forward()
+        with self.timers("assemble_matrix"):
+            self.A.zeroEntries()
+            fem_petsc.assemble_matrix(self.A, self.a_corrector, bcs=self.boundary.bcs)
+            self.A.assemble()
+            self.solver.set_operator(self.A)
+        with self.timers("backtrack"):
+            self.histories.update(alpha, self.state, self.solve_displacement)
+        with self.timers("assemble_vector"):
+            self._vector(self.L_corrector, self.a_corrector)
+        with self.timers("solve"):
+            self.solver.solve(self.b, compat.petsc_vec(self.solution))
+            self.solution.x.scatter_forward()
+        self._check_finite(t_new)
+
+    def _vector(self, L_form=None, a_form=None):
         b, bcs = self.b, self.boundary.bcs
         with b.localForm() as loc:
             loc.set(0.0)
-        fem_petsc.assemble_vector(b, self.L_form)
-        fem_petsc.apply_lifting(b, [self.a_form], bcs=[bcs])
+        fem_petsc.assemble_vector(b, self.L_form if L_form is None else L_form)
+        fem_petsc.apply_lifting(b, [self.a_form if a_form is None else a_form], bcs=[bcs])
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fem_petsc.set_bc(b, bcs)
 
@@ -193,10 +238,10 @@ class Stepper:
         E = self.solve_displacement.x.array
         D_prev = self.state.mesh_displacement_prev.x.array
         E[:] = D if alpha == 1.0 else (4.0 * D - D_prev) / 3.0
-        if self.extrapolate:
+        if self.motion_base is not None:
             self.motion_base[:] = E
-            if alpha != 1.0:
-                E[:] = 2.0 * D - D_prev
+        if self.extrapolate and alpha != 1.0:
+            E[:] = 2.0 * D - D_prev
         self.motion.place(E, self.state.t)
         self.histories.mesh_moved(rebuild=True)
 
@@ -208,7 +253,8 @@ class Stepper:
             state.configuration_n.x.array[:] = self.solve_displacement.x.array
             state.mesh_displacement_prev.x.array[:] = m.displacement.x.array
             self.histories.remember_configuration()
-        base = None if self.order == 1 else self.motion_base if self.extrapolate else self.solve_displacement.x.array
+        base = (None if self.order == 1 else self.motion_base if self.motion_base is not None
+                else self.solve_displacement.x.array)
         w_P1 = m.move(state.velocity, self.dt, state.t, alpha, base)
         state.mesh_velocity.interpolate(w_P1)
         self.histories.mesh_moved(rebuild=self.order == 2)
