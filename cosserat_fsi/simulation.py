@@ -84,8 +84,9 @@ class Simulation:
         if prescribed_motion is not None:
             return PrescribedMotion(self.mesh, prescribed_motion, self.comm)
         if self.problem.model.moving_mesh:
-            return MeshMotion(self.mesh, self.cell_tags, self.comm, **self.scene.solid.mesh_motion.options(),
-                              wall_facets=self.problem.facets("walls"))
+            settings = self.scene.solid.mesh_motion
+            return MeshMotion(self.mesh, self.cell_tags, self.comm, **settings.options(),
+                              wall_facets=self.problem.facets("walls"), mesh_sizes=settings.remesh is not None)
         return None
 
     # ------------------------------------------------------------------------------- the loop
@@ -121,8 +122,8 @@ class Simulation:
                                      else None, root=0)
         path = Path(folder) / f"remesh_{len(self.remeshes) + 1:03d}.msh"
         with self.timers("remesh"):
-            remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self.motion.X0, self.problem.facet_ids, path,
-                       self.comm)
+            remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self._node_sizes(), self.problem.facet_ids,
+                       path, self.comm)
             mesh, cell_tags, facet_tags = compat.read_msh(path, self.comm, gdim=2)
             old = self.state
             lowest = self.motion.lowest_quality
@@ -141,6 +142,22 @@ class Simulation:
         for callback in self.on_remesh:
             callback(self, record)
         return record
+
+    def _node_sizes(self):
+        """Target cell size at the local geometry nodes: the kept ``mesh_size`` (carried from the scene's mesh
+        through every remesh, so the cell count does not drift), else the mean reference edge length."""
+        from .scheme.mesh_motion import _vertex_sizes
+
+        m = self.motion
+        if getattr(m, "mesh_size", None) is not None:
+            return m.node_sizes()
+        x = self.mesh.geometry.x[:, :2].copy()
+        self.mesh.geometry.x[:, :2] = m.X0
+        try:
+            m.mesh_size = _vertex_sizes(self.mesh)
+        finally:
+            self.mesh.geometry.x[:, :2] = x
+        return m.node_sizes()
 
     def _adopt(self, mesh, cell_tags, facet_tags) -> None:
         """Problem, mesh motion, state and stepper on another mesh of the scene (state not set)."""

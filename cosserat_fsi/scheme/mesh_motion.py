@@ -111,9 +111,11 @@ class MeshMotion(_MovingMesh):
 
     def __init__(self, mesh, cell_tags, comm=MPI.COMM_WORLD, stiffening: bool = True, method: str = "harmonic",
                  stiffness_exponent: float = 1.0, poisson_ratio: float = 0.0, wall_facets: np.ndarray | None = None,
-                 wall_gap: float | None = None):
+                 wall_gap: float | None = None, mesh_sizes: bool = False):
         """``wall_facets``: local facets of the channel's walls (the solid must keep ``wall_gap`` from them;
-        default gap: a quarter of the shortest wall facet)."""
+        default gap: a quarter of the shortest wall facet). ``mesh_sizes``: keep the target cell size of
+        each vertex (P1 ``mesh_size``, in the checkpoint; a remesh meshes to it and carries it on), from the
+        mean length of the vertex's edges on this mesh."""
         super().__init__(mesh, comm)
         self.method = method
         M, tdim = self.M, mesh.topology.dim
@@ -122,6 +124,7 @@ class MeshMotion(_MovingMesh):
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
         self._solid_entries = (self.solid_dofs[:, None] * 2 + np.arange(2)).ravel()
+        self.mesh_size = _vertex_sizes(mesh) if mesh_sizes else None
         self.fluid_cells = np.ones(len(self.ref_area), dtype=bool)
         self.fluid_cells[solid_cells[solid_cells < len(self.ref_area)]] = False
         self.walls = WallGap(self, wall_facets, wall_gap)
@@ -167,7 +170,14 @@ class MeshMotion(_MovingMesh):
         self._new = dolfinx.fem.Function(M)
 
     def state_functions(self) -> dict:
-        return {**super().state_functions(), "solid_displacement": self.solid_displacement}
+        sizes = {} if self.mesh_size is None else {"mesh_size": self.mesh_size}
+        return {**super().state_functions(), "solid_displacement": self.solid_displacement, **sizes}
+
+    def node_sizes(self) -> np.ndarray:
+        """``mesh_size`` at the local geometry nodes."""
+        dofs = np.empty(len(self.mesh.geometry.x), dtype=np.int64)
+        dofs[compat.geometry_dofmap(self.mesh).ravel()] = compat.cell_dofs(self.mesh_size.function_space).ravel()
+        return self.mesh_size.x.array[dofs]
 
     def _biharmonic(self, K, v):
         """K M_L⁻¹ K: the mixed biharmonic operator with the auxiliary field eliminated by the lumped mass."""
@@ -282,6 +292,22 @@ def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
     area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     quality = 4.0 * np.sqrt(3.0) * area / ((e1 ** 2).sum(1) + (e2 ** 2).sum(1) + (e3 ** 2).sum(1))
     return quality if orientation is None else quality * orientation
+
+
+def _vertex_sizes(mesh):
+    """P1 function: the mean length of each vertex's edges (over its local cells), on the current mesh."""
+    V = compat.function_space(mesh, "Lagrange", 1)
+    size = dolfinx.fem.Function(V, name="mesh_size")
+    x = mesh.geometry.x[:, :2]
+    nodes, dofs = compat.geometry_dofmap(mesh)[:, :3], compat.cell_dofs(V)[:, :3]
+    total, count = np.zeros(len(size.x.array)), np.zeros(len(size.x.array))
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        length = np.linalg.norm(x[nodes[:, a]] - x[nodes[:, b]], axis=1)
+        for end in (a, b):
+            np.add.at(total, dofs[:, end], length)
+            np.add.at(count, dofs[:, end], 1.0)
+    size.x.array[:] = total / np.maximum(count, 1.0)
+    return size
 
 
 def _facet_segments(mesh, facets: np.ndarray) -> np.ndarray:
