@@ -30,6 +30,7 @@ from cosserat_fsi.geometry import GEOMETRIES, MODELS, Geometry, GeometryBase
 GEOMETRY_OF_BENCHMARK = {
     "schaefer_turek_2d1": ("schaefer_turek", None),
     "schaefer_turek_2d2": ("schaefer_turek", None),
+    "schaefer_turek_3d1z": ("schaefer_turek_3d", None),
     "turek_hron_cfd1": ("turek_hron", "rigid"),
     "turek_hron_cfd2": ("turek_hron", "rigid"),
     "turek_hron_cfd3": ("turek_hron", "rigid"),
@@ -45,7 +46,7 @@ GEOMETRY_OF_BENCHMARK = {
 """Benchmark name -> (required geometry.name, required geometry.flag or None)."""
 
 Benchmark = Literal[
-    "schaefer_turek_2d1", "schaefer_turek_2d2",
+    "schaefer_turek_2d1", "schaefer_turek_2d2", "schaefer_turek_3d1z",
     "turek_hron_cfd1", "turek_hron_cfd2", "turek_hron_cfd3",
     "turek_hron_csm1", "turek_hron_csm2",
     "turek_hron_fsi1", "turek_hron_fsi2", "turek_hron_fsi3",

@@ -20,7 +20,8 @@ from .tags import FLUID, SOLID
 import dolfinx
 import ufl
 
-# Schäfer–Turek pressure probes: front and back of the cylinder (shared/reference/benchmarks.yaml)
+# Schäfer–Turek pressure probes: front and back of the cylinder (shared/reference/benchmarks.yaml; 3D:
+# geometry/schaefer_turek_3d.py's a1, a2)
 DP_POINTS = np.array([[0.15, 0.2, 0.0], [0.25, 0.2, 0.0]])
 BODY = ("cylinder", "interface")
 POINT_A = {"turek_hron": (0.6, 0.2), "flag": None}  # flag: (length, thickness/2), from the mesh
@@ -78,7 +79,9 @@ class Observables:
                 and self.comm.allreduce(int(np.any(ft.values == outlet)), op=MPI.MAX)):
             self._flow_rate = compat.form(ufl.inner(u, n) * ds(outlet))  # ∫_outlet u·n ds
             self.columns.append("flow_rate")
-        self._dp = scene.geometry.name == "schaefer_turek"
+        self._dp = scene.geometry.name in ("schaefer_turek", "schaefer_turek_3d")
+        self._dp_points = (np.array([scene.geometry.describe()["points"][a] for a in ("a1", "a2")])
+                           if scene.geometry.name == "schaefer_turek_3d" else DP_POINTS)
         if self._dp:
             self.columns.append("dp")
         if sim.model.micro_rotation:
@@ -121,7 +124,7 @@ class Observables:
         if self._flow_rate is not None:
             out["flow_rate"] = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._flow_rate), op=MPI.SUM)
         if self._dp:
-            p = probe(self.sim.locator, [self.sim.pressure], DP_POINTS, self.comm)[0][:, 0]
+            p = probe(self.sim.locator, [self.sim.pressure], self._dp_points, self.comm)[0][:, 0]
             out["dp"] = float(p[0] - p[1])
         if self.sim.model.micro_rotation:
             local = np.abs(self.sim.micro_rotation.x.array).max(initial=0.0)
@@ -254,7 +257,9 @@ def _momentum_residual(sim, u, T, dx):
     return residual
 
 
-def schaefer_turek_coefficients(drag: float, lift: float, rho: float, u_mean: float, diameter: float = 0.1):
-    """c_D = 2 F_D / (ρ Ū² D), c_L = 2 F_L / (ρ Ū² D) (Schäfer & Turek 1996)."""
-    scale = 2.0 / (rho * u_mean**2 * diameter)
+def schaefer_turek_coefficients(drag: float, lift: float, rho: float, u_mean: float, diameter: float = 0.1,
+                                span: float = 1.0):
+    """c_D = 2 F_D / (ρ Ū² D), c_L = 2 F_L / (ρ Ū² D) (Schäfer & Turek 1996); in 3D (3D-1Z) divided by the
+    cylinder's ``span`` H = 0.41 too: 2 F / (ρ Ū² D H) (data/three_d_references.yaml)."""
+    scale = 2.0 / (rho * u_mean**2 * diameter * span)
     return drag * scale, lift * scale

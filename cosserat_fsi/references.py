@@ -1,4 +1,6 @@
-"""Published reference values of the benchmarks (a verbatim copy of shared/reference/benchmarks.yaml).
+"""Published reference values of the benchmarks (data/benchmarks.yaml: a verbatim copy of
+shared/reference/benchmarks.yaml; data/three_d_references.yaml: the 3D benchmarks, from
+shared/reference/three_d_literature.md with their sources).
 
 ``reference_for(benchmark)`` gives the observables to compare for each ``Scene.benchmark`` name: a float,
 a periodic ``{"mean", "amplitude", "frequency"}`` dict, or a ``{"min", "max"}`` range.
@@ -19,6 +21,12 @@ _PERIODIC = re.compile(r"^\s*(\S+)\s*\+-\s*(\S+)\s*\[\s*(\S+)\s*\]\s*$")
 @cache
 def _references() -> dict:
     text = resources.files("cosserat_fsi").joinpath("data/benchmarks.yaml").read_text(encoding="utf-8")
+    return yaml_load(text)
+
+
+@cache
+def _references_3d() -> dict:
+    text = resources.files("cosserat_fsi").joinpath("data/three_d_references.yaml").read_text(encoding="utf-8")
     return yaml_load(text)
 
 
@@ -62,6 +70,8 @@ def reference_for(benchmark: str, source: str = "paper_2006") -> dict[str, float
         raise ValueError(f"unknown benchmark {benchmark!r} (known: {', '.join(GEOMETRY_OF_BENCHMARK)})")
     if benchmark in ("micropolar_poiseuille", "micropolar_taylor_green"):
         return {"velocity": 0.0, "micro_rotation": 0.0}  # relative L² errors against the exact solution
+    if benchmark == "schaefer_turek_3d1z":
+        return _pick(_references_3d()["schaefer_turek_3d"]["cases"]["3D-1Z"], ("c_D", "c_L", "dp"))
     refs = _references()
     th, st = refs["turek_hron"]["cases"], refs["schaefer_turek_1996"]["cases"]
     if benchmark == "schaefer_turek_2d1":

@@ -90,3 +90,70 @@ def test_compiled_backtracking_equals_numpy(tmp_path, monkeypatch):
     for a, b in zip(ref["values"] + ref["probes"], ours["values"] + ours["probes"]):
         assert a.shape == b.shape and np.array_equal(np.isnan(a), np.isnan(b))
         assert np.nanmax(np.abs(a - b)) <= 1e-14 * np.nanmax(np.abs(a))
+
+
+def _wobble(X, t):
+    """An interior mesh motion of the unit square, zero on its boundary (as in test_fsi)."""
+    bump = np.sin(np.pi * X[:, 0]) * np.sin(np.pi * X[:, 1])
+    return 0.08 * np.sin(2 * np.pi * t / 0.2)[None] * np.column_stack([bump, -bump * X[:, 0]])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("moving", [False, True], ids=["fixed", "moving"])
+def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
+    """The fused BDF2 kernel (histories.py → _kernels.bdf2_quadrature: u*, feet, both evaluations and
+    2v₁ − ½v₂ written into the quadrature functions) gives the numpy path's α h of u and ω to round-off
+    (in practice bit for bit), on a fixed and on a moving mesh, with feet beyond the inflow (pulled back),
+    and under 2 ranks on other ranks: the points the kernel's walks cannot finish take the general path."""
+    if not _kernels.ENABLED:
+        pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1): no compiled path to compare")
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import validate_scene
+    from cosserat_fsi.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    scene = validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.01},
+                            "inflow": {"u_mean": 1.0}, "micropolar": {"mu_r": 0.1, "lambda1": 0.01},
+                            "time": {"dt": 0.05, "t_end": 0.2, "scheme": "characteristics2"}})
+    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm, prescribed_motion=_wobble if moving else None)
+    sim.run(3)
+    stepper, h = sim.stepper, sim.stepper.histories
+    statuses = []
+    kernel = _kernels.bdf2_quadrature
+    monkeypatch.setattr(_kernels, "bdf2_quadrature", lambda *a: statuses.append(kernel(*a)[0]) or kernel(*a))
+
+    def history(compiled):
+        monkeypatch.setattr(characteristics, "COMPILED", compiled)
+        for f in (h.velocity, h.micro_rotation):
+            f.x.array[:] = np.nan
+        h.update(1.5, stepper.state, stepper.solve_displacement)
+        return [f.x.array.copy() for f in (h.velocity, h.micro_rotation)]
+
+    ref, ours = history(False), history(True)
+    assert len(statuses) == 1 and h.micro_rotation.function_space.dofmap.index_map_bs == 1  # fused, with ω
+    status = statuses[0]
+    assert comm.allreduce(int((status == 0).sum())) > 0.9 * comm.allreduce(len(status))
+    assert comm.allreduce(int((status == 1).sum())) > 0  # feet that leave the local mesh: general path
+    for a, b in zip(ref, ours):
+        assert np.isfinite(a).all() and np.isfinite(b).all()
+        assert np.abs(a - b).max() <= 1e-14 * np.abs(a).max()
+
+
+def test_values_at_quadrature_nodes_compiled_equals_numpy(tmp_path, monkeypatch):
+    """Characteristics.at_quadrature_nodes: the compiled kernel = the numpy sum (bit for bit), vector and
+    scalar, and both = Function.eval at the quadrature points to round-off."""
+    mesh = _mesh(tmp_path)
+    V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))
+    S = compat.function_space(mesh, "Lagrange", 2)
+    u, p = dolfinx.fem.Function(V), dolfinx.fem.Function(S)
+    u.interpolate(lambda x: np.vstack([np.sin(3 * x[0]) * x[1], x[0] ** 2 - x[1]]))
+    p.interpolate(lambda x: np.cos(2 * x[0] + x[1]))
+    chars = Characteristics(V)
+    x, cells = chars.quadrature_nodes(6)
+    for f in (u, p):
+        values = {}
+        for compiled in ([False, True] if _kernels.ENABLED else [False]):
+            monkeypatch.setattr(characteristics, "COMPILED", compiled)
+            values[compiled] = chars.at_quadrature_nodes(f, 6)
+        assert all(np.array_equal(values[False], v) for v in values.values())
+        assert np.abs(values[False] - f.eval(x, cells).reshape(len(x), -1)).max() < 1e-12

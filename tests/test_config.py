@@ -54,8 +54,8 @@ BAD = [
     ("corrector_on_first_order", None, ["time.corrector_passes=1"],
      "time.corrector_passes: needs time.scheme 'characteristics2' and a solid"),
     ("bad_geometry", None, ["geometry.name=foo"],
-     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct "
-     "(got 'foo')"),
+     "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct, "
+     "schaefer_turek_3d (got 'foo')"),
     ("level_7", None, ["geometry.level=7"], "geometry.level: must be an integer 0..6 or 'seed' (got 7)"),
     ("level_float", None, ["geometry.level=1.0"], "geometry.level: must be an integer"),
     ("seed_on_channel", None, ["geometry.name=channel", "geometry.flag=null", "geometry.level=seed"],

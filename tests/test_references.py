@@ -66,6 +66,7 @@ def test_every_schema_benchmark_has_an_entry(benchmark):
 def test_selected_values():
     assert reference_for("schaefer_turek_2d1") == pytest.approx(
         {"c_D": 5.57953523384, "c_L": 0.010618948146, "dp": 0.11752016697})
+    assert reference_for("schaefer_turek_3d1z") == pytest.approx({"c_D": 6.18533, "c_L": 0.009401, "dp": 0.170827})
     assert reference_for("turek_hron_cfd2") == {"drag": 136.70, "lift": 10.534}
     assert reference_for("turek_hron_cfd3")["lift"] == {"mean": -11.893, "amplitude": 437.81, "frequency": 4.3956}
     assert set(reference_for("turek_hron_fsi1")) == {"ux_A", "uy_A", "drag", "lift"}

@@ -59,3 +59,23 @@ def test_bad_study_exits_2_before_running(run_cli, tmp_path, repo_root, text, ex
     assert result.returncode == 2 and len(result.stderr.splitlines()) == 1, result.stderr
     assert "Traceback" not in result.stderr and expected in result.stderr, result.stderr
     assert not (tmp_path / "docs" / "runs").exists()
+
+
+def test_variants_multiply_the_ladder(tmp_path, repo_root):
+    from cosserat_fsi.app.study import _combinations, load_study
+
+    study = load_study(_study(tmp_path, f"name: v\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D]\n"
+                                        "base: {time.t_end: 0.3}\nladder: {time.dt: [0.1, 0.05]}\n"
+                                        "variants: {c1: {time.scheme: characteristics1},\n"
+                                        "           c2: {time.scheme: characteristics2, time.quadrature_degree: 6}}\n"))
+    runs = _combinations(study)
+    assert [run_id for _, run_id in runs] == ["dt0.1-c1", "dt0.1-c2", "dt0.05-c1", "dt0.05-c2"]
+    assert runs[3][0] == {"time.t_end": 0.3, "time.dt": 0.05, "time.scheme": "characteristics2",
+                          "time.quadrature_degree": 6}
+
+
+def test_bad_variant_exits_2(run_cli, tmp_path, repo_root):
+    study = _study(tmp_path, f"name: v\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D]\n"
+                             "ladder: {time.dt: [0.1]}\nvariants: {a: {time.scheme: nope}}\n")
+    result = run_cli("study", study, "--out", tmp_path / "docs")
+    assert result.returncode == 2 and "time.scheme" in result.stderr and "Traceback" not in result.stderr

@@ -14,9 +14,10 @@ import pytest
 from mpi4py import MPI
 
 from cosserat_fsi import compat
-from cosserat_fsi.app.runner import load_mesh
+from cosserat_fsi.app.runner import compare_with_reference, load_mesh
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.exact import NP, UFL, MicropolarPoiseuille
+from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.kinematics import spin
 from cosserat_fsi.simulation import Simulation
 
@@ -214,3 +215,24 @@ def test_micropolar_poiseuille_in_a_3d_slab():
     assert np.all(rates > 2.5), (errors, rates)
     assert errors[-1, 0] < 3e-4 and errors[-1, 1] < 3e-3, errors
     assert abs(flow[-1] - 0.37072084) < 1e-5, flow
+
+
+def test_schaefer_turek_3d1z_coarse():
+    """Schäfer–Turek 3D-1Z (cylinder in a square duct, Re 20), steady Newton + MUMPS on level 0 (1,838
+    vertices, 38,873 dofs): c_D = 6.1041 (−1.31 %), c_L = 0.01091 (+16 %), Δp = 0.1673 (−2.1 %) against
+    Braack & Richter 2006 / FEAT3 (cosserat_fsi/data/three_d_references.yaml). Bounds: c_D within 2 %,
+    c_L within 25 %, Δp within 3 % (level 1 and 2: docs/validation.md). ≈ 25 s."""
+    scene = validate_scene({"benchmark": "schaefer_turek_3d1z",
+                            "geometry": {"name": "schaefer_turek_3d", "level": 0},
+                            "fluid": {"rho": 1.0, "mu": 1e-3, "body_force": [0.0, 0.0, 0.0]},
+                            "inflow": {"u_mean": 0.2, "ramp_time": 0.0}, "time": {"scheme": "steady"}})
+    mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
+    sim = Simulation(scene, mesh, ct, ft, MPI.COMM_WORLD)
+    obs = Observables(sim)
+    sim.run(sim.steps_to(scene.time.t_end))
+    final = obs.evaluate()
+    result = compare_with_reference(scene, {"final": final, "periodic": {}})
+    assert abs(result["c_D"]["error"]) < 0.02, result["c_D"]
+    assert abs(result["c_L"]["error"]) < 0.25, result["c_L"]
+    assert abs(result["dp"]["error"]) < 0.03, result["dp"]
+    assert final["drag"] > 0 and abs(final["drag_surface"] / final["drag"] - 1) < 0.1  # surface form, coarser

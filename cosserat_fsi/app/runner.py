@@ -362,9 +362,10 @@ def compare_with_reference(scene, summary: dict) -> dict:
         return out
     ref = reference_for(scene.benchmark)
     computed = dict(final)
-    if scene.benchmark == "schaefer_turek_2d1" and "drag" in final:
+    if scene.benchmark in ("schaefer_turek_2d1", "schaefer_turek_3d1z") and "drag" in final:
+        span = 0.41 if scene.benchmark == "schaefer_turek_3d1z" else 1.0  # 3D: the projected area D H
         computed["c_D"], computed["c_L"] = schaefer_turek_coefficients(
-            final["drag"], final["lift"], scene.fluid.rho, scene.inflow.u_mean)
+            final["drag"], final["lift"], scene.fluid.rho, scene.inflow.u_mean, span=span)
     out = {"name": scene.benchmark}
     for key, reference in ref.items():
         if isinstance(reference, dict) and "frequency" in reference:

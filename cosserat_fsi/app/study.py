@@ -10,6 +10,10 @@ levels × δt × scheme × solver options):
     ladder:
       geometry.level: [0, 1]
       time.dt: [0.002, 0.001]
+    variants:                                                  # optional: named override sets, each
+      c2: {time.scheme: characteristics2}                      # run at every point of the ladder (ids
+      c2-extrapolated: {time.scheme: characteristics2,         # end in -<variant>): for options that
+                        time.solve_configuration: extrapolated}  # only make sense together
     ranks: 1                                                   # optional: runs under mpirun -n ranks
 
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
@@ -47,6 +51,7 @@ class Study(BaseModel):
     observables: list[str] = Field(min_length=1)
     base: dict[str, Any] = {}
     ladder: dict[str, list[Any]] = Field(min_length=1)
+    variants: dict[str, dict[str, Any]] = {}
     ranks: int = Field(default=1, ge=1, le=1024)
 
 
@@ -64,8 +69,12 @@ def load_study(path: str | Path) -> Study:
         raise InputError(f"{path}: {where}: {' '.join(err['msg'].lower().split())[:200]}") from None
     if not _config_path(study, path).exists():
         raise InputError(f"{path}: config: {study.config} not found")
+    for name in study.variants:
+        if not name or not all(c.isalnum() or c in "_.-" for c in name):
+            raise InputError(f"{path}: variants.{name}: a name of letters, digits, '_', '.', '-'")
     for where, value in [*(("base." + k, v) for k, v in study.base.items()),
-                         *((f"ladder.{k}", v) for k, vs in study.ladder.items() for v in vs)]:
+                         *((f"ladder.{k}", v) for k, vs in study.ladder.items() for v in vs),
+                         *((f"variants.{n}.{k}", v) for n, o in study.variants.items() for k, v in o.items())]:
         if isinstance(value, float) and not math.isfinite(value):
             raise InputError(f"{path}: {where}: must be a finite number (got {value!r})")
     runs = 1
@@ -73,12 +82,13 @@ def load_study(path: str | Path) -> Study:
         if not values:
             raise InputError(f"{path}: ladder.{key}: needs at least one value")
         runs *= len(values)
+    runs *= max(len(study.variants), 1)
     if runs > MAX_RUNS:
         raise InputError(f"{path}: ladder: {runs:,} runs, more than {MAX_RUNS:,}")
     # every run's scene must validate before anything runs (a bad value costs a second, not an hour)
     from ..config import load_scene
 
-    for overrides in _combinations(study):
+    for overrides, _ in _combinations(study):
         try:
             load_scene(_config_path(study, path), [f"{k}={_yaml(v)}" for k, v in overrides.items()])
         except InputError as exc:
@@ -95,21 +105,24 @@ def _yaml(value) -> str:
     return value if isinstance(value, str) else json.dumps(value)
 
 
-def _combinations(study: Study) -> list[dict]:
+def _combinations(study: Study) -> list[tuple[dict, str]]:
+    """(overrides, run id) of every run: the ladder's product, each point once per variant (innermost)."""
     keys = list(study.ladder)
-    return [{**study.base, **dict(zip(keys, values))} for values in itertools.product(*study.ladder.values())]
-
-
-def _run_id(study: Study, overrides: dict) -> str:
-    parts = [f"{key.rsplit('.', 1)[-1]}{_yaml(overrides[key])}" for key in study.ladder]
-    return "-".join(parts).replace("/", "_").replace(" ", "")
+    variants = study.variants or {"": {}}
+    runs = []
+    for values in itertools.product(*study.ladder.values()):
+        parts = [f"{key.rsplit('.', 1)[-1]}{_yaml(value)}" for key, value in zip(keys, values)]
+        for name, extra in variants.items():
+            run_id = "-".join(parts + ([name] if name else [])).replace("/", "_").replace(" ", "")
+            runs.append(({**study.base, **dict(zip(keys, values)), **extra}, run_id))
+    return runs
 
 
 def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tuple[dict, Path]]:
     """Run every run of the ladder not finished yet, ``jobs`` at a time; returns (overrides, folder) pairs."""
     runs = out / "runs" / f"study-{study.name}"
     config = _config_path(study, study_path)
-    todo = [(o, runs / _run_id(study, o)) for o in _combinations(study)]
+    todo = [(o, runs / run_id) for o, run_id in _combinations(study)]
     cases.run_cases([cases.Case(config, folder, {"output.fields": False, **overrides}, study.ranks)
                      for overrides, folder in todo], jobs)
     return todo
@@ -191,6 +204,7 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path
     lines = [f"# Study `{study.name}`", "",
              f"Written by `cosserat-fsi study` from `{study.config}` with base overrides "
              f"`{json.dumps(study.base)}` over the ladder `{json.dumps(study.ladder)}` "
+             + (f"× the variants `{json.dumps(study.variants)}` " if study.variants else "") +
              f"({study.ranks} rank{'s' if study.ranks > 1 else ''}). Errors are relative to the benchmark's "
              "reference; phases are seconds per step; peak memory is the sum over ranks.", "", *rows, ""]
     if front:
@@ -240,6 +254,6 @@ def main_study(path: str | Path, out: str | Path | None = None, jobs: int = 1, r
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"--out: cannot write to {out} ({exc.strerror or exc})") from None
-    todo = ([(o, out / "runs" / f"study-{study.name}" / _run_id(study, o)) for o in _combinations(study)]
+    todo = ([(o, out / "runs" / f"study-{study.name}" / run_id) for o, run_id in _combinations(study)]
             if report_only else run_all(study, study_path, out, jobs))
     return write_report(study, todo, out)

@@ -20,6 +20,7 @@ from ..analysis import periodic_analysis
 
 TOLERANCES = {
     "schaefer_turek_2d1": {"c_D": 0.005, "c_L": 0.05, "dp": 0.01},
+    "schaefer_turek_3d1z": {"c_D": 0.01, "c_L": 0.2, "dp": 0.02},
     "turek_hron_cfd1": {"drag": 0.01, "lift": 0.05},
     "turek_hron_cfd2": {"drag": 0.01, "lift": 0.05},
     "turek_hron_cfd3": {"drag.mean": 0.01, "lift.amplitude": 0.05, "lift.frequency": 0.02},

@@ -14,7 +14,8 @@ Tags (cosserat_fsi/tags.py: ``CELL_TAGS`` / ``FACET_TAGS``; each geometry's ``de
 
 cells: fluid 1, solid 2 (turek_hron with flag: solid, flag (all cells), box (the disk)).
 facets: inlet 1 (x = 0), outlet 2 (x = L), walls 3 (y = 0 and y = H; square: left, right, bottom; box: all four
-sides; cube: five sides), cylinder 4 (circle), interface 5 (turek_hron flag boundary off the cylinder; flag:
+sides; cube: five sides; duct, schaefer_turek_3d: four sides), cylinder 4 (circle; schaefer_turek_3d: the
+cylinder's surface), interface 5 (turek_hron flag boundary off the cylinder; flag:
 bottom, right, top edges, exterior; box: the circle, interior), lid 6 (square and cube top, y = length), clamp 7
 (flag: left edge x = 0).
 """
@@ -41,11 +42,13 @@ from .duct import Duct
 from .file import FileGeometry, names_path, read_names
 from .flag import Flag
 from .schaefer_turek import SchaeferTurek
+from .schaefer_turek_3d import SchaeferTurek3D
 from .square import Square
 from .turek_hron import TurekHron
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
-Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube | Duct,
+Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube | Duct
+                     | SchaeferTurek3D,
                      Field(discriminator="name")]
 """The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
 MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m in get_args(get_args(Geometry)[0])}
@@ -53,7 +56,7 @@ MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m
 _MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
 __all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "Duct", "FileGeometry", "Flag",
-           "Geometry", "GeometryBase", "MODELS", "SchaeferTurek", "Square", "TurekHron", "build_msh",
+           "Geometry", "GeometryBase", "MODELS", "SchaeferTurek", "SchaeferTurek3D", "Square", "TurekHron", "build_msh",
            "default_cache_dir", "facet_ids"]
 
 log = logging.getLogger("cosserat_fsi")

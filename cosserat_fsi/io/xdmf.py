@@ -83,8 +83,8 @@ class MovingMeshXDMF:
         """Numbering of ``mesh``'s owned nodes and cells; rank 0: its topology in original numbering."""
         comm = self.comm
         geom = compat.geometry_dofmap(mesh)
-        if geom.shape[1] != 3:
-            raise ValueError("MovingMeshXDMF: only P1 triangle meshes are supported")
+        if geom.shape[1] not in (3, 4):
+            raise ValueError("MovingMeshXDMF: only P1 triangle and tetrahedron meshes are supported")
         self.mesh, self._p1 = mesh, {}
         self.gdim = mesh.geometry.dim
         self.n_nodes = mesh.geometry.index_map().size_local
@@ -215,9 +215,10 @@ class MovingMeshXDMF:
         for step, (t, shapes) in enumerate(self.steps):
             gshape, gdtype = shapes["mesh/geometry"]
             topo = self.h5[shapes.get("topology", "mesh/topology")]
+            cell = "Triangle" if topo.shape[1] == 3 else "Tetrahedron"
             lines += [f'<Grid Name="step_{step:06d}" GridType="Uniform">',
                       f'<Time Value="{t!r}"/>',
-                      f'<Topology TopologyType="Triangle" NumberOfElements="{topo.shape[0]}">',
+                      f'<Topology TopologyType="{cell}" NumberOfElements="{topo.shape[0]}">',
                       _data_item(h5name, "/" + topo.name.lstrip("/"), topo.shape, topo.dtype), "</Topology>",
                       f'<Geometry GeometryType="{"XY" if gshape[1] == 2 else "XYZ"}">',
                       _data_item(h5name, f"/mesh/geometry/{step:06d}", gshape, gdtype), "</Geometry>"]

@@ -61,6 +61,23 @@ def first_inside(points, offsets, candidates, x0, Jinv, tol, cell_limit):
 
 
 @_jit
+def _walk_one(px, py, c, x0, Jinv, neighbours, tol, cell_limit, max_steps):
+    """``walk`` for one point (px, py) from cell c: (the cell found or −1, its λ0, λ1, λ2 there)."""
+    for _ in range(max_steps):
+        dx, dy = px - x0[c, 0], py - x0[c, 1]
+        l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
+        l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
+        l0 = 1.0 - l1 - l2
+        if min(min(l1, l2), l0) >= -tol:
+            return (c if c < cell_limit else -1), l0, l1, l2
+        k = 0 if l0 <= l1 and l0 <= l2 else (1 if l1 <= l2 else 2)
+        c = neighbours[c, k]
+        if c < 0:
+            return -1, l0, l1, l2
+    return -1, 0.0, 0.0, 0.0
+
+
+@_jit
 def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     """Per point, a cell containing it found by walking from ``start`` (the hint cell) towards it:
     test the barycentric coordinates (min(λ0, λ1, λ2) ≥ −tol: found), else cross the edge opposite the
@@ -71,22 +88,15 @@ def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     n = points.shape[0]
     cells = np.full(n, -1, dtype=np.int32)
     for i in range(n):
-        c = start[i]
-        px, py = points[i, 0], points[i, 1]
-        for _ in range(max_steps):
-            dx, dy = px - x0[c, 0], py - x0[c, 1]
-            l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
-            l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
-            l0 = 1.0 - l1 - l2
-            if min(min(l1, l2), l0) >= -tol:
-                if c < cell_limit:
-                    cells[i] = c
-                break
-            k = 0 if l0 <= l1 and l0 <= l2 else (1 if l1 <= l2 else 2)
-            c = neighbours[c, k]
-            if c < 0:
-                break
+        cells[i] = _walk_one(points[i, 0], points[i, 1], start[i], x0, Jinv, neighbours, tol, cell_limit,
+                             max_steps)[0]
     return cells
+
+
+@_jit
+def _basis_l(l0, l1, l2):
+    """The six P2 basis functions at barycentric coordinates (λ0, λ1, λ2): ``p2_basis``."""
+    return (l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1), 4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1)
 
 
 @_jit
@@ -95,8 +105,7 @@ def _basis(px, py, c, x0, Jinv):
     dx, dy = px - x0[c, 0], py - x0[c, 1]
     l1 = Jinv[c, 0] * dx + Jinv[c, 1] * dy
     l2 = Jinv[c, 2] * dx + Jinv[c, 3] * dy
-    l0 = 1.0 - l1 - l2
-    return (l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1), 4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1)
+    return _basis_l(1.0 - l1 - l2, l1, l2)
 
 
 @_jit
@@ -163,6 +172,118 @@ def p2_values(points, cells, x0, Jinv, dofs, values, bs: int) -> np.ndarray:
     return _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs)
 
 
+@_jit
+def _dofs6(dofs, c, bs):
+    return (dofs[c, 0] * bs, dofs[c, 1] * bs, dofs[c, 2] * bs, dofs[c, 3] * bs, dofs[c, 4] * bs, dofs[c, 5] * bs)
+
+
+@_jit
+def _coef(values, d, b):
+    """The six coefficients of component b at the (blocked) dofs ``d``."""
+    return (values[d[0] + b], values[d[1] + b], values[d[2] + b], values[d[3] + b], values[d[4] + b], values[d[5] + b])
+
+
+@_jit
+def _sum6(p, a):
+    """Σ_k p_k a_k in k order from 0.0: ``_combine`` with the coefficients at hand."""
+    return (((((0.0 + p[0] * a[0]) + p[1] * a[1]) + p[2] * a[2]) + p[3] * a[3]) + p[4] * a[4]) + p[5] * a[5]
+
+
+@_jit
+def _vector_at(p, k, c, here, values, dofs):
+    """Both components of a P2 2-vector at basis values p in cell k (``here``: its coefficients in c)."""
+    if k == c:
+        return _sum6(p, here[0]), _sum6(p, here[1])
+    d = _dofs6(dofs, k, 2)
+    return _sum6(p, _coef(values, d, 0)), _sum6(p, _coef(values, d, 1))
+
+
+@_jit
+def _scalar_at(p, k, c, here, values, dofs):
+    if k == c:
+        return _sum6(p, here)
+    return _sum6(p, _coef(values, _dofs6(dofs, k, 1), 0))
+
+
+@_jit
+def at_reference_points(phi, dofs, values, bs, n_cells):
+    """Values (n_cells·nq, bs) of a P2 field at the same reference points ``phi`` (nq, 6 basis values)
+    of every cell: Σ_k φ_k c_k in k order from 0.0 (``Characteristics.at_quadrature_nodes``)."""
+    nq = phi.shape[0]
+    out = np.empty((n_cells * nq, bs))
+    for c in range(n_cells):
+        d = _dofs6(dofs, c, bs)
+        for b in range(bs):
+            a = _coef(values, d, b)
+            for q in range(nq):
+                out[c * nq + q, b] = _sum6((phi[q, 0], phi[q, 1], phi[q, 2], phi[q, 3], phi[q, 4], phi[q, 5]), a)
+    return out
+
+
+@_jit
+def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neighbours,
+                    dofs_u, u_n, u_nm1, dofs_w, w_n, w_nm1, with_w, qdofs_u, out_u, qdofs_w, out_w):
+    """The BDF2 history α h = 2 f^n(x − δt u*) − ½ f^{n−1}(x − 2δt u*), u* = 2u^n − u^{n−1}, at the
+    quadrature points x (cell-major: point i is point i % nq of cell i // nq), for f = u (2-vector) and,
+    ``with_w``, ω (scalar), written into the quadrature functions' arrays ``out_u[2 qdofs_u[i] + b]``,
+    ``out_w[qdofs_w[i]]``: the operations of histories.py's numpy path, in its order.
+
+    u^n, u^{n−1} at x: Σ_k φ_k(ξ_q) c_k with the reference basis ``phi`` (nq, 6) on a fixed mesh; on a
+    moving mesh (``moving``) at x located by a walk from its cell in the configurations ``loc_n``,
+    ``loc_nm1`` ((x0, J⁻¹) of ``PointLocator``) the fields were computed on. The feet are located by a
+    walk from the point's cell in ``loc_n`` (f^n) and ``loc_nm1`` (f^{n−1}), the basis taken from the
+    walk's last barycentric coordinates, the coefficients of the point's own cell loaded once per cell.
+    Returns (status, u*): status 0 = done, 1 = a foot not reached by a walk (u* valid), 2 = x not
+    reached in an earlier configuration (moving mesh): the caller does those on the general path."""
+    n = x.shape[0]
+    status = np.zeros(n, dtype=np.int8)
+    u_star = np.empty((n, 2))
+    x0a, Ja = loc_n
+    x0b, Jb = loc_nm1
+    big = np.iinfo(np.int32).max
+    dt2 = 2.0 * dt
+    for c in range(n // nq):
+        d = _dofs6(dofs_u, c, 2)
+        a = (_coef(u_n, d, 0), _coef(u_n, d, 1))  # u^n and u^{n−1} in this cell
+        b = (_coef(u_nm1, d, 0), _coef(u_nm1, d, 1))
+        e = _dofs6(dofs_w, c, 1)
+        wa, wb = _coef(w_n, e, 0), _coef(w_nm1, e, 0)
+        for q in range(nq):
+            i = c * nq + q
+            px, py = x[i, 0], x[i, 1]
+            if moving:
+                ca, l0, l1, l2 = _walk_one(px, py, c, x0a, Ja, neighbours, tol, big, max_steps)
+                cb, m0, m1, m2 = _walk_one(px, py, c, x0b, Jb, neighbours, tol, big, max_steps)
+                if ca < 0 or cb < 0:
+                    status[i] = 2
+                    continue
+                un0, un1 = _vector_at(_basis_l(l0, l1, l2), ca, c, a, u_n, dofs_u)
+                um0, um1 = _vector_at(_basis_l(m0, m1, m2), cb, c, b, u_nm1, dofs_u)
+            else:
+                p = (phi[q, 0], phi[q, 1], phi[q, 2], phi[q, 3], phi[q, 4], phi[q, 5])
+                un0, un1 = _sum6(p, a[0]), _sum6(p, a[1])
+                um0, um1 = _sum6(p, b[0]), _sum6(p, b[1])
+            s0, s1 = 2.0 * un0 - um0, 2.0 * un1 - um1
+            u_star[i, 0], u_star[i, 1] = s0, s1
+            f1x, f1y = px - dt * s0, py - dt * s1
+            f2x, f2y = px - dt2 * s0, py - dt2 * s1
+            c1, l0, l1, l2 = _walk_one(f1x, f1y, c, x0a, Ja, neighbours, tol, big, max_steps)
+            c2, m0, m1, m2 = _walk_one(f2x, f2y, c, x0b, Jb, neighbours, tol, big, max_steps)
+            if c1 < 0 or c2 < 0:
+                status[i] = 1
+                continue
+            p1, p2 = _basis_l(l0, l1, l2), _basis_l(m0, m1, m2)
+            v10, v11 = _vector_at(p1, c1, c, a, u_n, dofs_u)
+            v20, v21 = _vector_at(p2, c2, c, b, u_nm1, dofs_u)
+            o = 2 * qdofs_u[i]
+            out_u[o] = 2.0 * v10 - 0.5 * v20
+            out_u[o + 1] = 2.0 * v11 - 0.5 * v21
+            if with_w:
+                out_w[qdofs_w[i]] = (2.0 * _scalar_at(p1, c1, c, wa, w_n, dofs_w)
+                                     - 0.5 * _scalar_at(p2, c2, c, wb, w_nm1, dofs_w))
+    return status, u_star
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel for the argument types characteristics.py passes
     (writeable and read-only point and cell arrays: quadrature nodes are read-only)."""
@@ -178,3 +299,7 @@ def warm_up() -> None:
         walk(pts, cells, x0, Jinv, neighbours, 1e-10, 1, 8)
         for bs in (1, 2, 3):
             p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6 * bs), bs)
+        qdofs = np.zeros(1, dtype=np.int32)
+        bdf2_quadrature(pts, 1, np.zeros((1, 6)), False, 0.1, 1e-10, 8, (x0, Jinv), (x0, Jinv), neighbours,
+                        dofs, np.zeros(12), np.zeros(12), dofs, np.zeros(6), np.zeros(6), False, qdofs,
+                        np.zeros(2), qdofs, np.zeros(1))

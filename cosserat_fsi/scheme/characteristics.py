@@ -22,6 +22,7 @@ between them, so that the two paths (tested equal to round-off) are read and cha
 
 from __future__ import annotations
 
+import functools
 import weakref
 
 import numpy as np
@@ -130,6 +131,8 @@ class PointLocator:
             cells[rest] = self.locate(points[rest], owned_only)
             return cells
         offsets, candidates = compat.collision_candidates(self.tree, points)
+        if self.x0 is None:  # 3D: tetrahedra (probes only)
+            return _first_tetrahedron(self.mesh, points, offsets, candidates, self._limit(owned_only))
         if COMPILED:
             return _kernels.first_inside(np.ascontiguousarray(points), offsets, candidates, self.x0,
                                          self.Jinv_flat, _TOL, self._limit(owned_only))
@@ -145,6 +148,27 @@ class PointLocator:
         pts_in, first = np.unique(point_of[inside], return_index=True)
         cells[pts_in] = candidates[inside][first]
         return cells
+
+
+def _first_tetrahedron(mesh, points: np.ndarray, offsets: np.ndarray, candidates: np.ndarray,
+                       limit: int) -> np.ndarray:
+    """Local cell per point: the first candidate (bounding-box hit below ``limit``) of affine tetrahedra
+    whose barycentric coordinates are all ≥ −tolerance; −1 if none."""
+    cells = np.full(len(points), -1, dtype=np.int32)
+    point_of = np.repeat(np.arange(len(points)), np.diff(offsets))
+    keep = candidates < limit
+    point_of, candidates = point_of[keep], candidates[keep]
+    if len(candidates) == 0:
+        return cells
+    x = mesh.geometry.x
+    nodes = compat.geometry_dofmap(mesh)[candidates, :4]
+    x0 = x[nodes[:, 0]]
+    J = np.stack([x[nodes[:, k]] - x0 for k in (1, 2, 3)], axis=2)  # (n, 3, 3): columns edges
+    lam = np.linalg.solve(J, (points[point_of] - x0)[:, :, None])[:, :, 0]
+    inside = np.minimum(lam.min(axis=1), 1.0 - lam.sum(axis=1)) >= -_TOL
+    pts_in, first = np.unique(point_of[inside], return_index=True)
+    cells[pts_in] = candidates[inside][first]
+    return cells
 
 
 def neighbour_table(triangles: np.ndarray) -> np.ndarray:
@@ -179,6 +203,16 @@ def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
     l0 = 1.0 - l1 - l2
     return np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1),
                      4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
+
+
+@functools.cache
+def reference_basis(degree: int) -> np.ndarray:
+    """The P2 basis at the reference points of the quadrature rule of ``degree``, shape (nq, 6)
+    (cached, read-only)."""
+    ref = compat.quadrature_points(degree)
+    phi = np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]))
+    phi.flags.writeable = False
+    return phi
 
 
 def _coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarray]:
@@ -365,13 +399,20 @@ class Characteristics:
 
     def at_quadrature_nodes(self, f, degree: int) -> np.ndarray:
         """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference
-        points is the same in every cell, so this is one small matrix product per cell."""
-        ref = compat.quadrature_points(degree)
-        phi_t = np.ascontiguousarray(p2_basis(ref[:, 0], ref[:, 1]).T)  # (6, nq)
+        points is the same in every cell, so this is Σ_k φ_k(ξ_q) c_k per cell, summed in k order from 0
+        as ``combine`` (and the compiled kernels) do; a matrix product would sum in BLAS's order."""
+        phi = reference_basis(degree)  # (nq, 6)
+        if COMPILED and is_p2(self.locator, f):
+            return _kernels.at_reference_points(phi, self.locator.dofs(f.function_space), f.x.array,
+                                                f.function_space.dofmap.index_map_bs, len(self.locator.x0))
         cells = np.arange(len(self.locator.x0))
-        # per component: (c, 6) coefficients @ (6, nq) basis values
-        return np.stack([c @ phi_t for c in _coefficients(self.locator, f, cells)], axis=2).reshape(
-            -1, f.function_space.dofmap.index_map_bs)
+        out = []
+        for c in _coefficients(self.locator, f, cells):  # per component: (n_cells, 6) coefficients
+            total = np.zeros((len(c), len(phi)))
+            for k in range(6):
+                total += c[:, k, None] * phi[None, :, k]
+            out.append(total)
+        return np.stack(out, axis=2).reshape(-1, f.function_space.dofmap.index_map_bs)
 
     def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
         """Reorder values at local V nodes to the local nodes of S."""

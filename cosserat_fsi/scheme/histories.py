@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import compat
-from .characteristics import Characteristics, PointLocator, evaluate
+from . import _kernels, characteristics
+from .characteristics import Characteristics, PointLocator, evaluate, is_p2, reference_basis
 from .state import State
 
 import dolfinx
@@ -63,12 +64,15 @@ class Histories:
         with_omega = micro and not self.omega_apart
         current = [state.velocity] + ([state.micro_rotation] if with_omega else [])
         previous = [state.velocity_prev] + ([state.micro_rotation_prev] if with_omega else [])
-        hist = self._values(alpha, degree, state, current, previous, solve_displacement)
-        if degree:
+        if degree and alpha != 1.0 and self._compiled_bdf2(current, previous):
+            self._bdf2_quadrature(state, current, previous)
+        elif degree:
+            hist = self._values(alpha, degree, state, current, previous, solve_displacement)
             _set_quadrature(self.velocity, hist[0])
             if with_omega:
                 _set_quadrature(self.micro_rotation, hist[1])
         else:
+            hist = self._values(alpha, degree, state, current, previous, solve_displacement)
             n = chars.n_nodes
             self.velocity.x.array[: n * 2] = hist[0].ravel()
             self.velocity.x.scatter_forward()
@@ -117,6 +121,64 @@ class Histories:
             vals1 = evaluate(loc_n, fns_n, x - dt * u_star, x_n, comm, hint=cells)
             vals2 = evaluate(loc_nm1, fns_nm1, x - 2.0 * dt * u_star, x_nm1, comm, hint=cells)
         return [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
+
+    # ------------------------------------------------------------- BDF2 at the quadrature points, compiled
+    def _compiled_bdf2(self, current, previous) -> bool:
+        """Can the fused kernel do this step: numba on, 2D, P2 fields (u a 2-vector, ω a scalar)?"""
+        loc = self.chars.locator
+
+        def sizes(fns):
+            return [f.function_space.dofmap.index_map_bs for f in fns]
+        return (characteristics.COMPILED and loc.x0 is not None and all(is_p2(loc, f) for f in current + previous)
+                and sizes(current) == sizes(previous) and sizes(current) in ([2], [2, 1]))
+
+    def _bdf2_quadrature(self, state: State, fns_n, fns_nm1) -> None:
+        """``_values`` + ``_set_quadrature`` of BDF2 at the quadrature points in one compiled pass
+        (``_kernels.bdf2_quadrature``: u*, the feet, both evaluations and 2v₁ − ½v₂ written straight into
+        the quadrature functions); the points whose walks fail (feet outside the local mesh, on other
+        ranks, across a boundary) then take the general path (``evaluate``), which is collective."""
+        chars, degree, dt, comm = self.chars, self.degree, self.dt, self.comm
+        x, cells = chars.quadrature_nodes(degree)
+        loc = chars.locator
+        loc_n, loc_nm1 = self.earlier_locators if self.moving else (loc, loc)
+        with_w = len(fns_n) == 2
+        targets = [self.velocity] + ([self.micro_rotation] if with_w else [])
+        qdofs = [self._quadrature_dofs(f) for f in targets]
+        dofs_u = loc.dofs(fns_n[0].function_space)
+        dofs_w = loc.dofs(fns_n[1].function_space) if with_w else dofs_u
+        w_n, w_nm1 = (fns_n[1].x.array, fns_nm1[1].x.array) if with_w else (fns_n[0].x.array,) * 2
+        phi = reference_basis(degree)
+        status, u_star = _kernels.bdf2_quadrature(
+            x, len(phi), phi, self.moving, dt,
+            characteristics._TOL, characteristics._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
+            (loc_nm1.x0, loc_nm1.Jinv_flat), loc.neighbours, dofs_u, fns_n[0].x.array, fns_nm1[0].x.array,
+            dofs_w, w_n, w_nm1, with_w, qdofs[0], targets[0].x.array, qdofs[-1], targets[-1].x.array)
+        # the rest, as _values does it (point by point the same operations, so the same numbers)
+        if self.moving:
+            x_n = chars.quadrature_nodes(degree, loc_n)[0]
+            x_nm1 = chars.quadrature_nodes(degree, loc_nm1)[0]
+            lost = np.flatnonzero(status == 2)
+            (un_x,) = evaluate(loc_n, [state.velocity], x[lost], x_n[lost], comm, hint=cells[lost])
+            (unm1_x,) = evaluate(loc_nm1, [state.velocity_prev], x[lost], x_nm1[lost], comm, hint=cells[lost])
+            u_star[lost] = 2.0 * un_x - unm1_x
+        else:
+            x_n = x_nm1 = x
+        rest = np.flatnonzero(status)
+        star = _pad(u_star[rest])
+        vals1 = evaluate(loc_n, fns_n, x[rest] - dt * star, x_n[rest], comm, hint=cells[rest])
+        vals2 = evaluate(loc_nm1, fns_nm1, x[rest] - 2.0 * dt * star, x_nm1[rest], comm, hint=cells[rest])
+        for f, dofs, v1, v2 in zip(targets, qdofs, vals1, vals2):
+            bs = f.function_space.dofmap.index_map_bs
+            f.x.array.reshape(-1, bs)[dofs[rest]] = 2.0 * v1 - 0.5 * v2
+
+    def _quadrature_dofs(self, f) -> np.ndarray:
+        """The dof of f's quadrature space at each quadrature point (cell-major, as quadrature_nodes)."""
+        cache = self.__dict__.setdefault("_qdofs", {})
+        if id(f) not in cache:
+            n_cells = len(self.chars.locator.x0)
+            cache[id(f)] = np.ascontiguousarray(compat.cell_dofs(f.function_space)[:n_cells].ravel(),
+                                                dtype=np.int32)
+        return cache[id(f)]
 
     def _earlier_position(self, x, locator, displacement, degree, solve_displacement):
         """Where the points x of the current mesh were in an earlier configuration of it (``locator``,
