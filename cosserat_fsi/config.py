@@ -280,8 +280,8 @@ class BoundaryCondition(_Section):
         if kind in ("velocity", "traction"):
             if value is None:
                 raise ValueError(f"missing key (type {kind} needs value: [EXPR, EXPR])")
-            if len(value) != 2:
-                raise ValueError(f"must have 2 components, x and y (got {len(value)})")
+            if len(value) not in (2, 3):
+                raise ValueError(f"must have 2 components, x and y (3 in 3D; got {len(value)})")
         elif value is not None and kind is not None:
             raise ValueError(f"not used for type {kind} (only velocity and traction take a value)")
         return value
@@ -388,6 +388,9 @@ class Scene(_Section):
                 raise ValueError("inflow: not used with a boundaries section (give the inlet's velocity as "
                                  "boundaries.NAME: {type: velocity, value: [EXPR, EXPR]})")
             for name, bc in self.boundaries.items():
+                if bc.value is not None and len(bc.value) != geo.DIM:
+                    raise ValueError(f"boundaries.{name}.value: must have {geo.DIM} components for a {geo.DIM}D "
+                                     f"mesh (got {len(bc.value)})")
                 if bc.micro_rotation is not None and not self.has_micropolar:
                     raise ValueError(f"boundaries.{name}.micro_rotation: only with micropolar terms "
                                      "(micropolar.mu_r or lambda1 > 0)")
@@ -420,6 +423,15 @@ class Scene(_Section):
             if m.inertia <= 0 and self.has_micropolar:
                 raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
         return self
+
+    def conditions(self) -> dict[str, BoundaryCondition]:
+        """The boundary conditions by facet name: the ``boundaries`` section, or for a built-in geometry its
+        preset's defaults (geometry/presets.py) — the one mapping the boundary code reads."""
+        if self.boundaries is not None:
+            return self.boundaries
+        from cosserat_fsi.geometry.presets import default_boundaries
+
+        return {name: BoundaryCondition.model_validate(bc) for name, bc in default_boundaries(self).items()}
 
     @property
     def has_micropolar(self) -> bool:

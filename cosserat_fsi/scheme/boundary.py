@@ -1,9 +1,11 @@
 """Dirichlet data of a scene (seed §5.2: V_0h, W_0h), refreshed in time.
 
-No-slip (and ω = 0) on walls, cylinder, clamp and a rigid flag; the inflow profile × ramp at the inlet,
-with an optional antisymmetric kick during the ramp; the moving lid of the cavity. With an exact solution:
-its values on every tagged boundary but the outlet. Where ``micropolar.wall_condition: half_curl`` the
-wall value of ω is weak (Problem.residual) and has no Dirichlet condition here.
+One path for every scene: the conditions by facet name of ``scene.conditions()`` — a file scene's
+``boundaries`` section, or a built-in geometry's preset (geometry/presets.py: no-slip walls, cylinder, clamp
+and a rigid flag; the inflow profile × ramp at the inlet, with the optional antisymmetric start-up tilt; the
+moving lid of the cavity). With an exact solution: its values on every tagged boundary but the outlet.
+Where ``micropolar.wall_condition: half_curl`` the wall value of ω is weak (Problem.residual) and has no
+Dirichlet condition here.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import InputError
-from .problem import Problem, ramp
+from .problem import Problem
 
 import dolfinx
 
@@ -39,18 +41,7 @@ class BoundaryConditions:
             if micro:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)
             return
-        scene = problem.scene
-        if scene.boundaries is not None:
-            self._named(scene.boundaries, micro)
-            return
-        inflow = scene.inflow
-        moving_lid = inflow is not None and scene.geometry.name in ("square", "cube")
-        no_slip = problem.no_slip_boundaries()
-        self._add("velocity", no_slip + (() if moving_lid else ("lid",)))
-        if inflow is not None:
-            self._inflow(inflow, moving_lid)
-        if micro and not weak:
-            self._add("micro_rotation", no_slip + ("lid",))
+        self._named(problem.scene.conditions(), micro)
 
     def _named(self, boundaries, micro: bool) -> None:
         """The conditions of a ``boundaries`` section: no-slip first, then the velocities (they win at shared
@@ -93,54 +84,12 @@ class BoundaryConditions:
         for update in self._updates:
             update(t)
 
-    def _inflow(self, inflow, moving_lid: bool):
-        """Parabolic or uniform inflow (or the lid's velocity) × ramp, + ε sin(π t/T) × a tilted profile."""
-        x = self.problem.mesh.geometry.x
-        zeros = [np.zeros_like] * (self.problem.mesh.geometry.dim - 1)  # the other velocity components
-        ramp_time = inflow.ramp_time
-        y0 = self.comm.allreduce(x[:, 1].min(), op=MPI.MIN)
-        H = self.comm.allreduce(x[:, 1].max(), op=MPI.MAX) - y0
-
-        if len(zeros) == 2:  # 3D duct: the parabola in z too (mean u_mean over the inlet)
-            z0 = self.comm.allreduce(x[:, 2].min(), op=MPI.MIN)
-            W = self.comm.allreduce(x[:, 2].max(), op=MPI.MAX) - z0
-
-        def profile(x):
-            y = x[1] - y0
-            ux = (6.0 * inflow.u_mean * y * (H - y) / H**2 if inflow.profile == "parabolic"
-                  else np.full_like(y, inflow.u_mean))
-            if len(zeros) == 2 and inflow.profile == "parabolic":
-                ux = ux * 6.0 * (x[2] - z0) * (W - (x[2] - z0)) / W**2
-            return np.vstack([ux] + [z(ux) for z in zeros])
-
-        def lid(x):
-            return np.vstack([np.full_like(x[0], inflow.u_mean)] + [z(x[0]) for z in zeros])
-
-        def tilt(x):  # antisymmetric about mid-height: breaks the symmetry of the start-up
-            return profile(x) * (2.0 * (x[1] - y0) / H - 1.0)
-
-        def bump(t):  # ε sin(π t / T) during the ramp, then 0
-            return inflow.asymmetry * np.sin(np.pi * t / ramp_time) if 0 < t < ramp_time else 0.0
-
-        kick = (tilt, bump) if inflow.asymmetry and not moving_lid else None
-        self._add("velocity", ("lid",) if moving_lid else ("inlet",), values=lid if moving_lid else profile,
-                  scale=lambda t: ramp(t, ramp_time), kick=kick)
-
-    def _add(self, space_name, facet_names, values=None, scale=None, exact=None, kick=None, expressions=None):
-        """One condition on the sub-space ``space_name``: fixed ``values`` (× ``scale(t)``, plus
-        ``kick = (values2, scale2)`` × scale2(t)), the ``exact(x, t)`` data, or zero."""
+    def _add(self, space_name, facet_names, exact=None, expressions=None):
+        """One condition on the sub-space ``space_name``: the ``exact(x, t)`` data, a boundaries section's
+        ``expressions`` (its value: [EXPR, EXPR] in x, y, z, t), or zero."""
         sp = self.space
         Vs = sp.space(space_name)
         g = dolfinx.fem.Function(Vs)
-        if values is not None:
-            g.interpolate(values)
-            if scale is not None:
-                g0 = g.x.array.copy()
-                g1, scale1 = np.zeros_like(g0), (lambda t: 0.0)
-                if kick is not None:
-                    g.interpolate(kick[0])
-                    g1, scale1 = g.x.array.copy(), kick[1]
-                self._updates.append(lambda t: g.x.array.__setitem__(slice(None), scale(t) * g0 + scale1(t) * g1))
         if exact is not None:
             self._updates.append(lambda t: g.interpolate(lambda x: exact(x, t)))
         if expressions is not None:  # a boundaries section's value: [EXPR, EXPR] in x, y, z, t

@@ -175,32 +175,25 @@ class Problem:
         return [self.facet_ids[n] for n in names if n in self.facet_ids]
 
     def no_slip_boundaries(self) -> tuple:
-        """Walls, cylinder, the clamp, and the flag when it is rigid (a solid flag's boundary is free); with a
-        ``boundaries`` section: the names of type no_slip."""
-        if self.scene.boundaries is not None:
-            return tuple(name for name, bc in self.scene.boundaries.items() if bc.type == "no_slip")
-        return ("walls", "cylinder", "clamp") + (() if self.model.solid else ("interface",))
+        """The names of type no_slip (``scene.conditions()``: the boundaries section or the preset's)."""
+        return tuple(name for name, bc in self.scene.conditions().items() if bc.type == "no_slip")
 
     def micro_rotation_boundaries(self, condition: str) -> tuple:
-        """With a ``boundaries`` section: the names whose micro-rotation condition is ``condition``."""
+        """The names whose micro-rotation condition is ``condition`` (zero, half_curl, free)."""
         wall = self.scene.micropolar.wall_condition
-        return tuple(name for name, bc in (self.scene.boundaries or {}).items() if bc.micro(wall) == condition)
+        return tuple(name for name, bc in self.scene.conditions().items() if bc.micro(wall) == condition)
 
     def half_curl_walls(self) -> tuple:
         """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl, or per
         boundary in a ``boundaries`` section)."""
         if not self.model.micro_rotation:
             return ()
-        if self.scene.boundaries is not None:
-            return self.micro_rotation_boundaries("half_curl")
-        if self.scene.micropolar.wall_condition != "half_curl":
-            return ()
-        return self.no_slip_boundaries() + ("lid",)
+        return self.micro_rotation_boundaries("half_curl")
 
     def traction(self, v) -> ufl.Form | None:
         """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t), or
         None."""
-        named = [(name, bc) for name, bc in (self.scene.boundaries or {}).items() if bc.type == "traction"]
+        named = [(name, bc) for name, bc in self.scene.conditions().items() if bc.type == "traction"]
         if not named:
             return None
         ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)

@@ -238,7 +238,7 @@ FILE_SCENES = {  # (files {name: content}, geometry section, extra YAML, expecte
                    "boundaries.walls.value[1]: syntax error in 'sin(x'"),
     "bnd_components": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
                        "boundaries: {walls: {type: traction, value: [1, 0, 0]}, outlet: {type: do_nothing}}\n",
-                       "boundaries.walls.value: must have 2 components, x and y (got 3)"),
+                       "boundaries.walls.value: must have 2 components for a 2D mesh (got 3)"),
     "bnd_import": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
                    "boundaries: {walls: {type: velocity, value: [\"__import__('os').system('touch X')\", 0]},"
                    " outlet: {type: do_nothing}}\n", "boundaries.walls.value[0]: only the functions"),
