@@ -109,7 +109,6 @@ def table(rows: list[dict]) -> str:
 def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path) -> Path:
     """Continue the checkpoint of ``run_dir`` for ``seconds`` with ``overrides`` (same δt); write
     ``out``/timeseries.csv (the run's series up to the checkpoint, then the new steps) and summary.json."""
-    import time as clock
 
     from mpi4py import MPI
 

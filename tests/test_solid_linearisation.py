@@ -72,3 +72,35 @@ def test_seed_linearisation_drops_first_order_terms(differences):
     rates = np.log2(differences["seed"][:-1] / differences["seed"][1:])
     assert np.all(np.abs(rates - 1.0) < 0.1), (differences, rates)
     assert differences["seed"][0] > 10 * differences["consistent"][0], differences
+
+
+def test_corrector_stress_is_one_newton_step():
+    """``corrector_stress_residual`` (time.corrector_passes): around d̂ = d* it is the seed's eq. (28)
+    (to round-off); around a prediction d̂ = d* + ε u + e its difference from the exact strain measure
+    S(d* + ε u) (same configuration) is quadratic in the prediction error e (ratio 4 per halving)."""
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_WORLD, 6, 6)
+    V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))
+    d_star, u, e, d_hat = (dolfinx.fem.Function(V) for _ in range(4))
+    d_star.interpolate(lambda x: np.vstack([0.15 * np.sin(2 * x[1]) + 0.05 * x[0] ** 2, -0.2 * x[0] * x[1]]))
+    u.interpolate(lambda x: np.vstack([np.cos(x[0] + 2 * x[1]), 0.5 * x[0] ** 2 - x[1]]))
+    e.interpolate(lambda x: np.vstack([np.sin(3 * x[0]) * x[1], np.cos(x[0] * x[1])]))
+    v, dx, eps = ufl.TestFunction(V), ufl.dx(domain=mesh), 1e-2
+
+    def vector(form):
+        b = fem_petsc.assemble_vector(compat.form(form))
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return b
+
+    seed = vector(solid.linearised_stress_residual(u, v, d_star, mu_s=1.0, dt=eps, dx_solid=dx))
+    same = vector(solid.corrector_stress_residual(u, v, d_star, d_star, mu_s=1.0, dt=eps, dx_solid=dx))
+    same.axpy(-1.0, seed)
+    assert same.norm() < 1e-13 * seed.norm()
+    exact = vector(0.5 * ufl.inner(solid.strain_measure(d_star + eps * u), ufl.sym(ufl.grad(v)) * 2) * dx)
+    errors = []
+    for size in (0.04, 0.02, 0.01):
+        d_hat.x.array[:] = d_star.x.array + eps * u.x.array + size * e.x.array
+        b = vector(solid.corrector_stress_residual(u, v, d_star, d_hat, mu_s=1.0, dt=eps, dx_solid=dx))
+        b.axpy(-1.0, exact)
+        errors.append(b.norm())
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all(np.abs(ratios - 4) < 0.2), (errors, ratios)
