@@ -424,14 +424,17 @@ class Scene(_Section):
                 raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
         return self
 
-    def conditions(self) -> dict[str, BoundaryCondition]:
+    def conditions(self, names=None, extent=None) -> dict[str, BoundaryCondition]:
         """The boundary conditions by facet name: the ``boundaries`` section, or for a built-in geometry its
-        preset's defaults (geometry/presets.py) — the one mapping the boundary code reads."""
+        preset's defaults (geometry/presets.py) — the one mapping the boundary code reads. ``names``: the
+        mesh's facet names and ``extent`` its box (a file scene without a ``boundaries`` section gets the
+        defaults by name)."""
         if self.boundaries is not None:
             return self.boundaries
         from cosserat_fsi.geometry.presets import default_boundaries
 
-        return {name: BoundaryCondition.model_validate(bc) for name, bc in default_boundaries(self).items()}
+        defaults = default_boundaries(self, names, extent)
+        return {name: BoundaryCondition.model_validate(bc) for name, bc in defaults.items()}
 
     @property
     def has_micropolar(self) -> bool:
