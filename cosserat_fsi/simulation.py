@@ -13,7 +13,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
 
 from .scheme.boundary import BoundaryConditions
@@ -85,8 +84,9 @@ class Simulation:
         if prescribed_motion is not None:
             return PrescribedMotion(self.mesh, prescribed_motion, self.comm)
         if self.problem.model.moving_mesh:
-            return MeshMotion(self.mesh, self.cell_tags, self.comm, **self.scene.solid.mesh_motion.options(),
-                              wall_facets=self.problem.facets("walls"))
+            settings = self.scene.solid.mesh_motion
+            return MeshMotion(self.mesh, self.cell_tags, self.comm, **settings.options(),
+                              wall_facets=self.problem.facets("walls"), mesh_sizes=settings.remesh is not None)
         return None
 
     # ------------------------------------------------------------------------------- the loop
@@ -96,14 +96,16 @@ class Simulation:
         observers = tuple(observers)
         self.stepper.advance(observe=(lambda: [o(self) for o in observers]) if observers else None)
         settings = self.scene.solid.mesh_motion.remesh if self.scene.solid is not None else None
-        if (settings is not None and isinstance(self.motion, MeshMotion) and self.motion.min_quality is not None
-                and self.motion.min_quality < settings.quality and len(self.remeshes) < settings.max_count):
-            self.remesh(f"minimum cell quality {self.motion.min_quality:.3g} < {settings.quality:g}")
+        quality = getattr(self.motion, "min_fluid_quality", None)  # a remesh can only mend the fluid cells
+        if (settings is not None and isinstance(self.motion, MeshMotion) and quality is not None
+                and quality < settings.quality and len(self.remeshes) < settings.max_count):
+            self.remesh(f"minimum fluid cell quality {quality:.3g} < {settings.quality:g}")
 
     def remesh(self, reason: str = "requested") -> dict:
         """A new fluid mesh around the current solid (scheme/remesh.py), every field and history level
         carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
-        Returns (and appends to ``remeshes``) the record: t, step, reason, quality before/after, seconds."""
+        Returns (and appends to ``remeshes``) the record: t, step, reason, the minimum quality of the fluid
+        cells before/after, seconds."""
         import gc
         import tempfile
         import time
@@ -113,15 +115,15 @@ class Simulation:
         from .scheme.transfer import interpolator
 
         start = time.perf_counter()
-        before = self.motion.min_quality
+        before = self.motion.min_fluid_quality
         folder = self.remesh_folder
         if folder is None:
             folder = self.comm.bcast(tempfile.mkdtemp(prefix="cosserat-fsi-remesh-") if self.comm.rank == 0
                                      else None, root=0)
         path = Path(folder) / f"remesh_{len(self.remeshes) + 1:03d}.msh"
         with self.timers("remesh"):
-            remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self.motion.X0, self.problem.facet_ids, path,
-                       self.comm)
+            remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self._node_sizes(), self.problem.facet_ids,
+                       path, self.comm)
             mesh, cell_tags, facet_tags = compat.read_msh(path, self.comm, gdim=2)
             old = self.state
             lowest = self.motion.lowest_quality
@@ -134,12 +136,28 @@ class Simulation:
             gc.collect()  # the old mesh's PETSc objects (factorisations): freed now, on every rank together
         self.mesh_file = path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
-                  "quality_after": self.motion.min_quality, "seconds": time.perf_counter() - start,
+                  "quality_after": self.motion.min_fluid_quality, "seconds": time.perf_counter() - start,
                   "cells": mesh.topology.index_map(2).size_global, "mesh": path.name}
         self.remeshes.append(record)
         for callback in self.on_remesh:
             callback(self, record)
         return record
+
+    def _node_sizes(self):
+        """Target cell size at the local geometry nodes: the kept ``mesh_size`` (carried from the scene's mesh
+        through every remesh, so the cell count does not drift), else the mean reference edge length."""
+        from .scheme.mesh_motion import _vertex_sizes
+
+        m = self.motion
+        if getattr(m, "mesh_size", None) is not None:
+            return m.node_sizes()
+        x = self.mesh.geometry.x[:, :2].copy()
+        self.mesh.geometry.x[:, :2] = m.X0
+        try:
+            m.mesh_size = _vertex_sizes(self.mesh)
+        finally:
+            self.mesh.geometry.x[:, :2] = x
+        return m.node_sizes()
 
     def _adopt(self, mesh, cell_tags, facet_tags) -> None:
         """Problem, mesh motion, state and stepper on another mesh of the scene (state not set)."""
@@ -162,8 +180,7 @@ class Simulation:
                 level.x.array[:] -= D
         m.displacement.x.array[:] = 0.0
         m.solid_displacement.x.array[:] = 0.0
-        quality = m.quality()
-        m.min_quality = self.comm.allreduce(float(quality.min()) if len(quality) else np.inf, op=MPI.MIN)
+        m.measure_quality()
 
     def run(self, n_steps: int, observers: Iterable[Callback] = (), after_step: Iterable[Callback] = ()) -> None:
         """Step until ``step_count == n_steps`` (continuing from a restored state)."""

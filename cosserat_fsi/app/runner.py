@@ -142,7 +142,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         observables = Observables(sim, point_A)
         if fields is not None:
             fields.new_mesh(sim.mesh)
-        log.info("t = %.6g: remesh %d (%s): minimum cell quality %.4g -> %.4g, %d cells, %.3g s", record["t"],
+        log.info("t = %.6g: remesh %d (%s): minimum fluid cell quality %.4g -> %.4g, %d cells, %.3g s", record["t"],
                  len(sim.remeshes), record["reason"], record["quality_before"], record["quality_after"],
                  record["cells"], record["seconds"])
 

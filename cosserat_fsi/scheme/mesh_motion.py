@@ -50,6 +50,8 @@ class _MovingMesh:
         self.node_dof[nodes.ravel()] = dofs.ravel()
         self.ref_area = self._areas()
         self.min_quality = self.lowest_quality = None  # minimum cell quality now / since the start (all ranks)
+        self.fluid_cells = None  # mask of the local fluid cells (None: all); min_fluid_quality: theirs
+        self.min_fluid_quality = None
 
     def state_functions(self) -> dict:
         """The functions a checkpoint must keep, by name (the total displacement and velocity)."""
@@ -93,9 +95,15 @@ class _MovingMesh:
             raise DivergenceError(f"t = {t:.6g}: the mesh motion would make a cell {kind} near "
                                   f"({where[0]:.4g}, {where[1]:.4g}); try a smaller time.dt, "
                                   f"or the deformation is too large for a moving mesh")
-        quality = self.quality()
-        self.min_quality = self.comm.allreduce(float(quality.min()) if len(quality) else np.inf, op=MPI.MIN)
+        self.measure_quality()
         self.lowest_quality = min(self.min_quality, np.inf if self.lowest_quality is None else self.lowest_quality)
+
+    def measure_quality(self) -> None:
+        """``min_quality`` (all cells) and ``min_fluid_quality`` (the cells a remesh replaces), all ranks."""
+        quality = self.quality()
+        fluid = quality if self.fluid_cells is None else quality[self.fluid_cells]
+        self.min_quality, self.min_fluid_quality = (
+            self.comm.allreduce(float(q.min()) if len(q) else np.inf, op=MPI.MIN) for q in (quality, fluid))
 
 
 class MeshMotion(_MovingMesh):
@@ -103,9 +111,11 @@ class MeshMotion(_MovingMesh):
 
     def __init__(self, mesh, cell_tags, comm=MPI.COMM_WORLD, stiffening: bool = True, method: str = "harmonic",
                  stiffness_exponent: float = 1.0, poisson_ratio: float = 0.0, wall_facets: np.ndarray | None = None,
-                 wall_gap: float | None = None):
+                 wall_gap: float | None = None, mesh_sizes: bool = False):
         """``wall_facets``: local facets of the channel's walls (the solid must keep ``wall_gap`` from them;
-        default gap: a quarter of the shortest wall facet)."""
+        default gap: a quarter of the shortest wall facet). ``mesh_sizes``: keep the target cell size of
+        each vertex (P1 ``mesh_size``, in the checkpoint; a remesh meshes to it and carries it on), from the
+        mean length of the vertex's edges on this mesh."""
         super().__init__(mesh, comm)
         self.method = method
         M, tdim = self.M, mesh.topology.dim
@@ -114,6 +124,9 @@ class MeshMotion(_MovingMesh):
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
         self._solid_entries = (self.solid_dofs[:, None] * 2 + np.arange(2)).ravel()
+        self.mesh_size = _vertex_sizes(mesh) if mesh_sizes else None
+        self.fluid_cells = np.ones(len(self.ref_area), dtype=bool)
+        self.fluid_cells[solid_cells[solid_cells < len(self.ref_area)]] = False
         self.walls = WallGap(self, wall_facets, wall_gap)
         mesh.topology.create_connectivity(tdim - 1, tdim)
         boundary = dolfinx.mesh.exterior_facet_indices(mesh.topology)
@@ -157,7 +170,14 @@ class MeshMotion(_MovingMesh):
         self._new = dolfinx.fem.Function(M)
 
     def state_functions(self) -> dict:
-        return {**super().state_functions(), "solid_displacement": self.solid_displacement}
+        sizes = {} if self.mesh_size is None else {"mesh_size": self.mesh_size}
+        return {**super().state_functions(), "solid_displacement": self.solid_displacement, **sizes}
+
+    def node_sizes(self) -> np.ndarray:
+        """``mesh_size`` at the local geometry nodes."""
+        dofs = np.empty(len(self.mesh.geometry.x), dtype=np.int64)
+        dofs[compat.geometry_dofmap(self.mesh).ravel()] = compat.cell_dofs(self.mesh_size.function_space).ravel()
+        return self.mesh_size.x.array[dofs]
 
     def _biharmonic(self, K, v):
         """K M_L⁻¹ K: the mixed biharmonic operator with the auxiliary field eliminated by the lumped mass."""
@@ -272,6 +292,22 @@ def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
     area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     quality = 4.0 * np.sqrt(3.0) * area / ((e1 ** 2).sum(1) + (e2 ** 2).sum(1) + (e3 ** 2).sum(1))
     return quality if orientation is None else quality * orientation
+
+
+def _vertex_sizes(mesh):
+    """P1 function: the mean length of each vertex's edges (over its local cells), on the current mesh."""
+    V = compat.function_space(mesh, "Lagrange", 1)
+    size = dolfinx.fem.Function(V, name="mesh_size")
+    x = mesh.geometry.x[:, :2]
+    nodes, dofs = compat.geometry_dofmap(mesh)[:, :3], compat.cell_dofs(V)[:, :3]
+    total, count = np.zeros(len(size.x.array)), np.zeros(len(size.x.array))
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        length = np.linalg.norm(x[nodes[:, a]] - x[nodes[:, b]], axis=1)
+        for end in (a, b):
+            np.add.at(total, dofs[:, end], length)
+            np.add.at(count, dofs[:, end], 1.0)
+    size.x.array[:] = total / np.maximum(count, 1.0)
+    return size
 
 
 def _facet_segments(mesh, facets: np.ndarray) -> np.ndarray:

@@ -30,11 +30,11 @@ from .. import compat
 from ..tags import CELL_TAGS, FLUID, SOLID
 
 
-def remesh_msh(mesh, cell_tags, facet_tags, reference: np.ndarray, facet_ids: dict[str, int], path: Path,
+def remesh_msh(mesh, cell_tags, facet_tags, sizes: np.ndarray, facet_ids: dict[str, int], path: Path,
                comm=MPI.COMM_WORLD) -> Path:
     """Write the remeshed ``mesh`` (its current configuration) to ``path`` (.msh) on rank 0; collective.
 
-    ``reference``: the geometry nodes' coordinates (n, 2) the sizes are taken from (the mesh motion's X0).
+    ``sizes``: the target cell size at each local geometry node (the mesh motion's ``mesh_size``).
     """
     node_ids = np.asarray(mesh.geometry.input_global_indices, np.int64)
     n_nodes = mesh.geometry.index_map().size_local
@@ -49,7 +49,7 @@ def remesh_msh(mesh, cell_tags, facet_tags, reference: np.ndarray, facet_ids: di
     vertex_node = np.empty(top.index_map(0).size_local + top.index_map(0).num_ghosts, dtype=np.int64)
     vertex_node[top.connectivity(2, 0).array.reshape(-1, 3)] = geom
     facet_nodes = vertex_node[top.connectivity(1, 0).array.reshape(-1, 2)[facet_tags.indices]]
-    local = (node_ids[:n_nodes], x[:n_nodes].copy(), reference[:n_nodes, :2].copy(), node_ids[geom[:n_cells]],
+    local = (node_ids[:n_nodes], x[:n_nodes].copy(), np.asarray(sizes)[:n_nodes].copy(), node_ids[geom[:n_cells]],
              tag_of_cell[:n_cells], node_ids[facet_nodes], np.asarray(facet_tags.values))
     parts = comm.gather(local, root=0)
     error = None
@@ -92,20 +92,13 @@ def _boundary_loops(edges: np.ndarray) -> list[list[int]]:
     return loops
 
 
-def _mesh_on_root(ids, coords, reference, cells, cell_tag, facets, facet_tag, facet_ids, path: Path) -> None:
+def _mesh_on_root(ids, coords, sizes, cells, cell_tag, facets, facet_tag, facet_ids, path: Path) -> None:
     import gmsh
 
     order = np.argsort(ids)  # every node once (owned by one rank)
-    ids, coords, reference = ids[order], coords[order], reference[order]
+    ids, coords, sizes = ids[order], coords[order], sizes[order]
     where = {int(i): k for k, i in enumerate(ids)}
     local = np.searchsorted(ids, cells)
-    sizes, count = np.zeros(len(ids)), np.zeros(len(ids))  # mean length of the incident reference edges
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        length = np.linalg.norm(reference[local[:, a]] - reference[local[:, b]], axis=1)
-        for end in (a, b):
-            np.add.at(sizes, local[:, end], length)
-            np.add.at(count, local[:, end], 1.0)
-    sizes /= np.maximum(count, 1.0)
     fluid = cells[cell_tag == FLUID]
     solid = cells[cell_tag == SOLID]
     edges = np.sort(np.concatenate([fluid[:, [0, 1]], fluid[:, [1, 2]], fluid[:, [2, 0]]]), axis=1)
