@@ -14,7 +14,7 @@ from __future__ import annotations
 import difflib
 import re
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args, get_origin
 from collections.abc import Sequence
 
 import yaml
@@ -424,14 +424,17 @@ class Scene(_Section):
                 raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
         return self
 
-    def conditions(self) -> dict[str, BoundaryCondition]:
+    def conditions(self, names=None, extent=None) -> dict[str, BoundaryCondition]:
         """The boundary conditions by facet name: the ``boundaries`` section, or for a built-in geometry its
-        preset's defaults (geometry/presets.py) — the one mapping the boundary code reads."""
+        preset's defaults (geometry/presets.py) — the one mapping the boundary code reads. ``names``: the
+        mesh's facet names and ``extent`` its box (a file scene without a ``boundaries`` section gets the
+        defaults by name)."""
         if self.boundaries is not None:
             return self.boundaries
         from cosserat_fsi.geometry.presets import default_boundaries
 
-        return {name: BoundaryCondition.model_validate(bc) for name, bc in default_boundaries(self).items()}
+        defaults = default_boundaries(self, names, extent)
+        return {name: BoundaryCondition.model_validate(bc) for name, bc in defaults.items()}
 
     @property
     def has_micropolar(self) -> bool:
@@ -468,15 +471,30 @@ def dump_resolved(scene: Scene) -> str:
 
 # ----------------------------------------------------------------------------------------- loading
 
+def _walk(parts: Sequence[str]) -> tuple[list[type[BaseModel]], bool]:
+    """(model classes at dotted path ``parts``, whether it is a mapping of named sections such as
+    ``boundaries``, whose next key is any name)."""
+    models: list[type[BaseModel]] = [Scene]
+    named = False
+    for part in parts:
+        if named:  # boundaries.NAME: the mapping's value model
+            named = False
+            continue
+        fields = [m.model_fields[part] for m in models if part in m.model_fields]
+        kinds = [a for f in fields for a in (f.annotation, *getattr(f.annotation, "__args__", ()))]
+        models = [a for a in kinds if isinstance(a, type) and issubclass(a, BaseModel)]
+        values = [get_args(a)[1] for a in kinds if get_origin(a) is dict and isinstance(get_args(a)[1], type)
+                  and issubclass(get_args(a)[1], BaseModel)]
+        if values and not models:
+            models, named = values, True
+    return models, named
+
+
 def _models_at(parts: Sequence[str]) -> list[type[BaseModel]]:
     """The model classes at dotted path ``parts`` (``()`` is the Scene; a union such as ``geometry`` gives
-    all its members), or ``[]`` if it is not a section."""
-    models: list[type[BaseModel]] = [Scene]
-    for part in parts:
-        fields = [m.model_fields[part] for m in models if part in m.model_fields]
-        models = [a for f in fields for a in (f.annotation, *getattr(f.annotation, "__args__", ()))
-                  if isinstance(a, type) and issubclass(a, BaseModel)]
-    return models
+    all its members; ``boundaries`` and ``boundaries.NAME`` give BoundaryCondition), or ``[]`` if it is not a
+    section."""
+    return _walk(parts)[0]
 
 
 def _field_names(parts: Sequence[str]) -> list[str]:
@@ -572,6 +590,8 @@ def _apply_override(data: dict, item: str) -> None:
     if not sep or not all(re.fullmatch(r"\w+", p) for p in parts):
         raise InputError(f"--set {item}: expected dotted.key=value (e.g. time.dt=1e-3)")
     for i in range(len(parts)):
+        if _walk(parts[:i])[1]:  # a name in a mapping of named sections (boundaries.NAME): any name
+            continue
         if not _models_at(parts[:i]):
             raise InputError(f"{'.'.join(parts[:i])}: is a value, not a section (in --set {key})")
         if parts[i] not in _field_names(parts[:i]):

@@ -12,7 +12,7 @@ calls ``MPI_Abort`` with the exit code (app/cli.py), the last resort.
 "<name>@<rank>[:<kind>[:<hit>]]"`` makes the named step fail on that rank (``*``: every rank) at its
 ``hit``-th passage (default 1), with ``kind`` one of ``error`` (a RuntimeError, a bug), ``enospc``
 (OSError: no space left), ``input`` (InputError), ``sigterm``/``sigint`` (the signal to this process),
-``abort`` (SIGABRT, as a C library that dies).
+``abort`` (SIGABRT, as a C library that dies), ``hang`` (sleeps an hour, as a .geo gmsh never finishes).
 Unset, it costs one dictionary lookup.
 """
 
@@ -165,6 +165,10 @@ def failpoint(name: str) -> None:
         raise InputError(f"injected fault at {name}")
     if kind == "abort":  # as a C library that dies (gmsh's std::bad_alloc)
         os.abort()
+    if kind == "hang":
+        import time
+
+        time.sleep(3600)
     if kind in ("sigterm", "sigint"):
         os.kill(os.getpid(), signal.SIGTERM if kind == "sigterm" else signal.SIGINT)
         return

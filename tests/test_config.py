@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -173,3 +174,14 @@ def test_loading_a_scene_imports_no_heavy_modules(tmp_path):
             "print(sorted(m for m in ('dolfinx', 'petsc4py', 'gmsh', 'mpi4py') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_set_reaches_into_named_boundaries(repo_root):
+    """--set boundaries.NAME.KEY=... (issue 17): a mapping of named sections takes any name, then its keys."""
+    flap = repo_root / "examples" / "perpendicular_flap" / "flap.yaml"
+    scene = load_scene(flap, ["boundaries.inlet.value=['5*min(t, 1)', 0]", "boundaries.outlet.type=no_slip"])
+    assert scene.boundaries["inlet"].value == ["5*min(t, 1)", 0] and scene.boundaries["outlet"].type == "no_slip"
+    for bad, message in (("boundaries.inlet.valu=[1, 0]", "boundaries.inlet.valu: unknown key (did you mean 'value'?)"),
+                         ("boundaries.inlet.value.x=1", "boundaries.inlet.value: is a value, not a section")):
+        with pytest.raises(InputError, match=re.escape(message)):
+            load_scene(flap, [bad])

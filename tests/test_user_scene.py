@@ -195,3 +195,5 @@ def test_perpendicular_flap_example_runs(repo_root):
     series = _series(scene, 3)
     assert np.all(np.isfinite(series["drag"])) and series["drag"][-1] > 0
     assert series["energy_kinetic"][-1] > 0 and series["ux_tip"][-1] > 0
+    # mass conservation: the flow rate is the inflow's 10 m/s × 4 m at every step (an incompressible fluid)
+    assert np.allclose(series["flow_rate"], 40.0, rtol=1e-4), series["flow_rate"]

@@ -157,6 +157,18 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     return path
 
 
+GMSH_TIMEOUT = 1800.0
+"""Seconds gmsh may take to mesh one geometry (``$COSSERAT_FSI_GMSH_TIMEOUT`` overrides it)."""
+
+
+def _gmsh_timeout() -> float:
+    try:
+        value = float(os.environ.get("COSSERAT_FSI_GMSH_TIMEOUT", GMSH_TIMEOUT))
+    except ValueError:
+        raise InputError("COSSERAT_FSI_GMSH_TIMEOUT: must be a number of seconds") from None
+    return value if value > 0 else GMSH_TIMEOUT
+
+
 def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
     """Mesh in a child process into ``tmp``; InputError if gmsh fails or dies."""
     import subprocess
@@ -167,8 +179,16 @@ def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
     request = json.dumps({"name": name, "level": level, "params": full, "out": str(tmp)})
     proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi.geometry", request], env=env,
                             stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    limit = _gmsh_timeout()
     try:
-        output, _ = proc.communicate()
+        output, _ = proc.communicate(timeout=limit)
+    except subprocess.TimeoutExpired:  # a .geo that never finishes meshing (or one far too fine)
+        proc.kill()
+        proc.wait()
+        what = (f"geometry.path: gmsh did not finish meshing {pathlib.Path(full['path']).name}" if name == "file"
+                else f"geometry: gmsh did not finish meshing {name} level {level}")
+        raise InputError(f"{what} within {limit:g} s (COSSERAT_FSI_GMSH_TIMEOUT; a coarser mesh or a lower "
+                         "level?)") from None
     except BaseException:  # a signal or Ctrl-C in the parent: stop gmsh now, then go on unwinding
         proc.kill()
         proc.wait()

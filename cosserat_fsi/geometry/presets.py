@@ -36,29 +36,34 @@ def _ramp(ramp_time: float) -> str:
 def _inflow_value(inflow, describe: dict[str, Any], dim: int) -> list[str]:
     """The inlet velocity of an ``inflow`` section as expressions in x, y, z, t (channels start at y = z = 0)."""
     U, H = repr(float(inflow.u_mean)), repr(float(describe["height"]))
+    y0, z0 = float(describe.get("y0", 0.0)), float(describe.get("z0", 0.0))
+    y = "y" if y0 == 0 else f"(y - {y0!r})"
+    z = "z" if z0 == 0 else f"(z - {z0!r})"
     if inflow.profile == "parabolic":
-        profile = f"6.0*{U}*y*({H} - y)/{H}**2"
+        profile = f"6.0*{U}*{y}*({H} - {y})/{H}**2"
         if dim == 3:
             W = repr(float(describe["width"]))
-            profile = f"{profile}*6.0*z*({W} - z)/{W}**2"  # the former ux * 6 z (W - z)/W², same order
+            profile = f"{profile}*6.0*{z}*({W} - {z})/{W}**2"  # the former ux * 6 z (W - z)/W², same order
     else:
         profile = U
     value = f"({profile}){_ramp(inflow.ramp_time)}"
     if inflow.asymmetry and inflow.ramp_time > 0:
         T, eps = repr(float(inflow.ramp_time)), repr(float(inflow.asymmetry))
-        value += f" + {eps}*sin(pi*min(t, {T})/{T})*(({profile})*(2.0*y/{H} - 1.0))"
+        value += f" + {eps}*sin(pi*min(t, {T})/{T})*(({profile})*(2.0*{y}/{H} - 1.0))"
     return [value] + ["0"] * (dim - 1)
 
 
-def default_boundaries(scene) -> dict[str, dict[str, Any]]:
-    """The ``boundaries`` mapping (plain data, for config.BoundaryCondition) of a built-in geometry's scene."""
+def default_boundaries(scene, names=None, extent=None) -> dict[str, dict[str, Any]]:
+    """The ``boundaries`` mapping (plain data, for config.BoundaryCondition) of a built-in geometry's scene;
+    ``names``, ``extent`` ({y0, height, z0, width}): the mesh's facet names and bounding box (for a file
+    scene without a ``boundaries`` section, which gets the same defaults by name)."""
     geometry = scene.geometry
-    info = geometry.describe()
-    names = info["facet_tags"]
+    info = {**geometry.describe(), **(extent or {})}
+    names = info["facet_tags"] if names is None else names
     dim = geometry.DIM
     micro = scene.has_micropolar
     wall = scene.micropolar.wall_condition
-    moving_lid = scene.inflow is not None and "lid" in names
+    moving_lid = scene.inflow is not None and "lid" in names and geometry.name in ("square", "cube")
     out: dict[str, dict[str, Any]] = {}
     for name in NO_SLIP_ORDER:
         if name not in names:

@@ -41,7 +41,7 @@ class BoundaryConditions:
             if micro:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)
             return
-        self._named(problem.scene.conditions(), micro)
+        self._named(problem.conditions(), micro)
 
     def _named(self, boundaries, micro: bool) -> None:
         """The conditions of a ``boundaries`` section: no-slip first, then the velocities (they win at shared

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from collections.abc import Callable
 
 import numpy as np
+from mpi4py import MPI
 
 from .. import compat
 from ..physics import fluid, solid
@@ -174,14 +175,24 @@ class Problem:
         """The tags of the facet groups ``names`` that this mesh's table has (``facet_ids``)."""
         return [self.facet_ids[n] for n in names if n in self.facet_ids]
 
+    def conditions(self) -> dict:
+        """The scene's boundary conditions by facet name (``Scene.conditions`` with this mesh's names)."""
+        if self.scene.geometry.name != "file" or self.scene.boundaries is not None:
+            return self.scene.conditions()
+        x = self.mesh.geometry.x
+        lo = [self.mesh.comm.allreduce(x[:, i].min() if len(x) else np.inf, op=MPI.MIN) for i in (1, 2)]
+        hi = [self.mesh.comm.allreduce(x[:, i].max() if len(x) else -np.inf, op=MPI.MAX) for i in (1, 2)]
+        extent = {"y0": lo[0], "height": hi[0] - lo[0], "z0": lo[1], "width": hi[1] - lo[1]}
+        return self.scene.conditions(self.facet_ids, extent)
+
     def no_slip_boundaries(self) -> tuple:
         """The names of type no_slip (``scene.conditions()``: the boundaries section or the preset's)."""
-        return tuple(name for name, bc in self.scene.conditions().items() if bc.type == "no_slip")
+        return tuple(name for name, bc in self.conditions().items() if bc.type == "no_slip")
 
     def micro_rotation_boundaries(self, condition: str) -> tuple:
         """The names whose micro-rotation condition is ``condition`` (zero, half_curl, free)."""
         wall = self.scene.micropolar.wall_condition
-        return tuple(name for name, bc in self.scene.conditions().items() if bc.micro(wall) == condition)
+        return tuple(name for name, bc in self.conditions().items() if bc.micro(wall) == condition)
 
     def half_curl_walls(self) -> tuple:
         """Boundaries where ω = ½ curl u is imposed weakly (micropolar.wall_condition: half_curl, or per
@@ -193,7 +204,7 @@ class Problem:
     def traction(self, v) -> ufl.Form | None:
         """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t), or
         None."""
-        named = [(name, bc) for name, bc in self.scene.conditions().items() if bc.type == "traction"]
+        named = [(name, bc) for name, bc in self.conditions().items() if bc.type == "traction"]
         if not named:
             return None
         ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)

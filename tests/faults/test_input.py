@@ -307,3 +307,21 @@ def test_file_scene_gmsh_failure(main, tmp_path, monkeypatch):
     scene.write_text(f"geometry: {{name: file, path: m.geo}}\n{_SCENE}")
     code, err = main("run", scene, "--out", main.out)
     _one_line(code, err, "geometry.path: gmsh could not mesh m.geo")
+
+
+def test_file_scene_gmsh_timeout(main, tmp_path, monkeypatch):
+    """gmsh that never finishes a .geo (the failpoint sleeps in the gmsh child) is stopped after
+    COSSERAT_FSI_GMSH_TIMEOUT seconds: exit 2, one line naming the file, nothing cached."""
+    import time
+
+    monkeypatch.setenv("COSSERAT_FSI_MESH_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("COSSERAT_FSI_FAILPOINT", "gmsh@0:hang")
+    monkeypatch.setenv("COSSERAT_FSI_GMSH_TIMEOUT", "3")
+    (tmp_path / "m.geo").write_text(_SQUARE + _NAMED)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"geometry: {{name: file, path: m.geo}}\n{_SCENE}")
+    start = time.monotonic()
+    code, err = main("run", scene, "--out", main.out)
+    _one_line(code, err, "geometry.path: gmsh did not finish meshing m.geo within 3 s")
+    assert time.monotonic() - start < 60
+    assert not list((tmp_path / "cache").glob("*.msh"))
