@@ -295,18 +295,27 @@ def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
 
 
 def _vertex_sizes(mesh):
-    """P1 function: the mean length of each vertex's edges (over its local cells), on the current mesh."""
+    """P1 function: the mean length of each vertex's edges over all its cells, on the current mesh.
+
+    Summed over the owned cells of each rank and then added across ranks (ghost update), so a vertex on a
+    partition boundary gets the same size as in a serial run (the remeshed mesh must not depend on the
+    partition)."""
     V = compat.function_space(mesh, "Lagrange", 1)
     size = dolfinx.fem.Function(V, name="mesh_size")
+    total, count = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
+    owned = mesh.topology.index_map(mesh.topology.dim).size_local
     x = mesh.geometry.x[:, :2]
-    nodes, dofs = compat.geometry_dofmap(mesh)[:, :3], compat.cell_dofs(V)[:, :3]
-    total, count = np.zeros(len(size.x.array)), np.zeros(len(size.x.array))
+    nodes, dofs = compat.geometry_dofmap(mesh)[:owned, :3], compat.cell_dofs(V)[:owned, :3]
     for a, b in ((0, 1), (1, 2), (2, 0)):
         length = np.linalg.norm(x[nodes[:, a]] - x[nodes[:, b]], axis=1)
         for end in (a, b):
-            np.add.at(total, dofs[:, end], length)
-            np.add.at(count, dofs[:, end], 1.0)
-    size.x.array[:] = total / np.maximum(count, 1.0)
+            np.add.at(total.x.array, dofs[:, end], length)
+            np.add.at(count.x.array, dofs[:, end], 1.0)
+    for f in (total, count):
+        vec = compat.petsc_vec(f)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    size.x.array[:] = total.x.array / np.maximum(count.x.array, 1.0)
     return size
 
 
