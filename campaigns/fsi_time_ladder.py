@@ -123,6 +123,53 @@ def rescale_history(sim, dt_old: float) -> None:
     state.step_count = int(round(state.t / sim.scene.time.dt))
 
 
+def foot_map(run_dir: Path, dts: list[float]) -> str:
+    """How far the BDF2 foot maps x → x − kδt u* (k = 1, 2) are from the identity in the checkpointed
+    flow of ``run_dir``, for each δt: with ∇u* at the cell centroids (u* = 2u^n − u^{n−1}, P2 on affine
+    triangles), div u = 0 gives det(I − s∇u*) = 1 + s² det ∇u*, so the straight-line map over s = 2δt
+    folds (det ≤ 0, feet crossing) where s √(−det ∇u*) ≥ 1 (strain-dominated), and its rotation error
+    (s ω)²/2 is large where s √(det ∇u*) is (vortex cores). A markdown table of the maxima of both numbers
+    over the mesh, where the maximum is, and the areas where the strain number exceeds ½ and 1."""
+    from mpi4py import MPI
+
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.io.checkpoint import read_checkpoint
+    from cosserat_fsi.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
+    meta, states = read_checkpoint(run_dir, comm, fingerprint)
+    scene = load_scene(run_dir / "config.yaml")
+    mesh, ct, ft, _ = load_mesh(scene, comm)
+    sim = Simulation(scene, mesh, ct, ft, comm)
+    sim.restore(states)
+    loc = sim.stepper.histories.chars.locator
+    u = sim.state.velocity
+    dofs = loc.dofs(u.function_space)
+    star = (2.0 * u.x.array - sim.state.velocity_prev.x.array).reshape(-1, 2)
+    Ji = loc.Jinv.reshape(-1, 2, 2)  # rows: ∇λ1, ∇λ2
+    g = [-Ji[:, 0] - Ji[:, 1], Ji[:, 0], Ji[:, 1]]  # ∇λ0, ∇λ1, ∇λ2
+    third = 1.0 / 3.0  # P2 basis gradients at the centroid (λ = ⅓): vertices (4λ−1)∇λ, edges 4(λj∇λk + λk∇λj)
+    grads = [third * g[0], third * g[1], third * g[2], 4 * third * (g[1] + g[2]), 4 * third * (g[0] + g[2]),
+             4 * third * (g[0] + g[1])]
+    grad_u = sum(star[dofs[:, k]][:, :, None] * grads[k][:, None, :] for k in range(6))  # (cells, i, j) = ∂_j u_i
+    det = grad_u[:, 0, 0] * grad_u[:, 1, 1] - grad_u[:, 0, 1] * grad_u[:, 1, 0]
+    area = 0.5 * np.abs(np.linalg.det(loc.J))
+    centre = loc.x0 + loc.J.sum(axis=2) / 3.0
+    strain, rotation = np.sqrt(np.maximum(-det, 0.0)), np.sqrt(np.maximum(det, 0.0))
+    at = centre[np.argmax(strain)]
+    lines = [f"foot maps of {run_dir.name} at t = {sim.t:g}: max √(−det ∇u*) = {strain.max():.4g} /s at "
+             f"({at[0]:.3f}, {at[1]:.3f}), max √(det ∇u*) = {rotation.max():.4g} /s", "",
+             "| δt | 2δt·max √(−det ∇u*) (fold at 1) | area where > ½ | area where > 1 | 2δt·max √(det ∇u*) |",
+             "|---|---|---|---|---|"]
+    for dt in dts:
+        s2 = 2.0 * dt
+        lines.append(f"| {dt:g} | {s2 * strain.max():.3f} | {1e4 * area[s2 * strain > 0.5].sum():.3g} cm² | "
+                     f"{1e4 * area[s2 * strain > 1.0].sum():.3g} cm² | {s2 * rotation.max():.3f} |")
+    return "\n".join(lines)
+
+
 def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path) -> Path:
     """Continue the checkpoint of ``run_dir`` for ``seconds`` with ``overrides`` (another δt: the BDF2
     levels re-interpolated, ``rescale_history``); write
@@ -130,8 +177,8 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
 
     from mpi4py import MPI
 
-    from cosserat_fsi.config import load_scene
     from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import dump_resolved, load_scene
     from cosserat_fsi.io.checkpoint import read_checkpoint
     from cosserat_fsi.observables import Observables
     from cosserat_fsi.simulation import Simulation
@@ -166,6 +213,11 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
     out.mkdir(parents=True, exist_ok=True)
     np.savetxt(out / "timeseries.csv", np.vstack([old, np.array(rows)]), delimiter=",", header=",".join(header),
                comments="")
+    from cosserat_fsi.io.checkpoint import scene_fingerprint, write_checkpoint
+
+    (out / "config.yaml").write_text(dump_resolved(scene))  # so that ``out`` can be continued in turn
+    write_checkpoint(out, sim, comm, {"fingerprint": scene_fingerprint(scene), "rows": len(rows) + len(old),
+                                      "field_steps": 0})
     (out / "summary.json").write_text(json.dumps({"status": "completed", "overrides": overrides,
                                                   "from": str(run_dir), "wall_time": {"per_step": per_step},
                                                   "mesh": {"vertices": mesh.topology.index_map(0).size_global}}))
@@ -182,7 +234,12 @@ def main(argv=None) -> int:
     p.add_argument("--seconds", type=float, default=1.5)
     p.add_argument("--set", dest="sets", action="append", default=[])
     p.add_argument("--out", type=Path)
+    p.add_argument("--foot-map", dest="foot_map", type=Path, help="checkpointed run: the foot maps' numbers")
+    p.add_argument("--dts", type=float, nargs="*", default=[0.005, 0.004, 0.0025, 0.002, 0.00125, 0.000625])
     a = p.parse_args(argv)
+    if a.foot_map:
+        print(foot_map(a.foot_map, a.dts))
+        return 0
     if a.cont:
         a.read.append(continue_with(a.cont, a.sets, a.seconds, a.out))
     outs = [run(c, cfg, base, extra, a.runs) for c, cfg, base, extra in LADDERS[a.ladder]] if a.ladder else []
