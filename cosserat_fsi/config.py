@@ -406,9 +406,6 @@ class Scene(_Section):
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
         m = self.micropolar
         dim = geo.DIM
-        if dim == 3 and time.scheme != "steady":
-            raise ValueError(f"time.scheme: the 3D geometry {geo.name} runs with the steady solver for now (the "
-                             f"characteristics back-tracking is 2D only; got {time.scheme})")
         if self.fluid is not None and len(self.fluid.body_force) != dim and (
                 dim == 2 or "body_force" in self.fluid.model_fields_set):
             raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "

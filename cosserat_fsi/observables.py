@@ -30,9 +30,10 @@ POINT_A = {"turek_hron": (0.6, 0.2), "flag": None}  # flag: (length, thickness/2
 class Observables:
     """Evaluates the observables of a scene from the current state of a :class:`~cosserat_fsi.simulation.Simulation`."""
 
-    def __init__(self, sim, point_A: np.ndarray | None = None):
+    def __init__(self, sim, point_A: np.ndarray | None = None, solid_points: dict | None = None):
         """``point_A``: where point A is now (after a remesh, the mesh's reference is no longer the
-        material's: see :meth:`point_A_now`); default the scene's."""
+        material's: see :meth:`point_A_now`); default the scene's. ``solid_points``: likewise, where the named
+        solid points (``observables.solid_points``) are now (:meth:`solid_points_now`); default as named."""
         self.sim = sim
         self.comm = sim.comm
         scene = sim.scene
@@ -64,8 +65,10 @@ class Observables:
             probed = ("u", "v", "p", "omega") if sim.model.micro_rotation else ("u", "v", "p")
             self.columns += [f"{c}_{name}" for name in named.points for c in probed]
         if named is not None and named.solid_points:
-            self._solid_points = {name: _nearest_solid_node(sim, np.asarray(xy)) for name, xy in
-                                  named.solid_points.items()}
+            where = {**named.solid_points, **(solid_points or {})}
+            self._solid_points = {name: _nearest_solid_node(sim, np.asarray(where[name])) for name in
+                                  named.solid_points}
+            self._space_points = sim.velocity.function_space  # kept: after a remesh sim's is the new mesh's
             self.columns += [f"{c}_{name}" for name in named.solid_points for c in ("ux", "uy")]
         self._energy_forms = None
         if sim.model.solid:
@@ -98,6 +101,14 @@ class Observables:
             return None
         x = self._space_A.tabulate_dof_coordinates()[self._node_A, :2] if self._node_A >= 0 else np.zeros(2)
         return self.comm.allreduce(x, op=MPI.SUM)
+
+    def solid_points_now(self) -> dict | None:
+        """The current positions of the named solid points (their nodes, on the mesh as it is now)."""
+        if self._solid_points is None:
+            return None
+        coordinates = self._space_points.tabulate_dof_coordinates()
+        return {name: self.comm.allreduce(coordinates[node, :2] if node >= 0 else np.zeros(2), op=MPI.SUM).tolist()
+                for name, node in self._solid_points.items()}
 
     def evaluate(self) -> dict:
         out = {}

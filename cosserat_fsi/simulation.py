@@ -107,6 +107,7 @@ class Simulation:
         Returns (and appends to ``remeshes``) the record: t, step, reason, the minimum quality of the fluid
         cells before/after, seconds."""
         import gc
+        import shutil
         import tempfile
         import time
 
@@ -117,7 +118,8 @@ class Simulation:
         start = time.perf_counter()
         before = self.motion.min_fluid_quality
         folder = self.remesh_folder
-        if folder is None:
+        scratch = folder is None  # no run folder (API use, tests): the .msh lives only until it is read
+        if scratch:
             folder = self.comm.bcast(tempfile.mkdtemp(prefix="cosserat-fsi-remesh-") if self.comm.rank == 0
                                      else None, root=0)
         path = Path(folder) / f"remesh_{len(self.remeshes) + 1:03d}.msh"
@@ -125,6 +127,10 @@ class Simulation:
             remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self._node_sizes(), self.problem.facet_ids,
                        path, self.comm)
             mesh, cell_tags, facet_tags = compat.read_msh(path, self.comm, gdim=2)
+            if scratch:
+                self.comm.barrier()  # every rank has read it
+                if self.comm.rank == 0:
+                    shutil.rmtree(folder, ignore_errors=True)
             old = self.state
             lowest = self.motion.lowest_quality
             self._adopt(mesh, cell_tags, facet_tags)
@@ -134,7 +140,7 @@ class Simulation:
             self.motion.lowest_quality = lowest
             del old
             gc.collect()  # the old mesh's PETSc objects (factorisations): freed now, on every rank together
-        self.mesh_file = path
+        self.mesh_file = None if scratch else path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
                   "quality_after": self.motion.min_fluid_quality, "seconds": time.perf_counter() - start,
                   "cells": mesh.topology.index_map(2).size_global, "mesh": path.name}

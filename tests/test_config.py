@@ -99,7 +99,6 @@ BAD = [
     ("body_force_2_in_3d", None, ["geometry={name: cube}", "time.scheme=steady", "fluid.body_force=[0, 1]"],
      "fluid.body_force: needs 3 components for the 3D geometry cube"),
     ("body_couple_vector_in_2d", None, ["micropolar.body_couple=[0, 0, 1]"], "micropolar.body_couple: a number in 2D"),
-    ("cube_time_stepping", None, ["geometry={name: cube}"], "time.scheme: the 3D geometry cube runs with the steady"),
     ("every_zero", None, ["output.every=0"], "output.every: must be >= 1"),
     ("bad_name", None, ["name=../x"], "name: must use only letters"),
     ("two_errors", None, ["fluid.rho=-1", "time.dt=-1"], "fluid.rho: must be > 0 (got -1) (+1 more)"),

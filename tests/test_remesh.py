@@ -157,6 +157,35 @@ def test_resting_flag_remeshed_mid_run_stays_at_rest():
             assert _max(sim.comm, f.x.array) < 1e-12, name
 
 
+@pytest.mark.mpi
+def test_a_named_solid_point_follows_the_material_across_a_remesh():
+    """``observables.solid_points`` are material points: after a remesh (whose mesh's reference is the bent
+    configuration) the point is found where it is now, not at its named reference coordinates."""
+    from cosserat_fsi.geometry import build_msh
+    from cosserat_fsi.observables import Observables
+
+    comm = MPI.COMM_WORLD
+    preset = validate_scene(SCENE)
+    msh = comm.bcast(str(build_msh(preset.geometry)) if comm.rank == 0 else None, root=0)
+    scene = {**SCENE, "inflow": None, "geometry": {"name": "file", "path": msh},  # the same mesh, named parts
+             "boundaries": {"inlet": {"type": "no_slip"}, "outlet": {"type": "do_nothing"},
+                            "walls": {"type": "no_slip"}, "cylinder": {"type": "no_slip"}},
+             "observables": {"forces": ["cylinder"], "solid_points": {"tip": [0.6, 0.2]}}}
+    sim = _simulation(scene)
+    observables = Observables(sim)
+    _bend(sim)
+    sim.displacement.interpolate(sim.motion.displacement)  # the solid's displacement = its mesh's
+    before = np.array(observables.solid_points_now()["tip"])
+    assert before[1] - 0.2 > 0.1  # the bent tip
+    sim.remesh()
+    carried = Observables(sim, observables.point_A_now(), observables.solid_points_now())
+    assert np.abs(np.array(carried.solid_points_now()["tip"]) - before).max() < 1e-12
+    values = carried.evaluate()
+    assert abs(values["uy_tip"] - (before[1] - 0.2)) < 1e-10 and abs(values["ux_tip"] - (before[0] - 0.6)) < 1e-10
+    naive = Observables(sim)  # looked up at the named coordinates on the new mesh: another point
+    assert np.linalg.norm(np.array(naive.solid_points_now()["tip"]) - before) > 0.02  # 4.4 cm off
+
+
 RUN = {**SCENE, "solid": {"rho": 1000.0, "mu_s": 5.0e4,
                           "mesh_motion": {"remesh": {"quality": 0.95, "max_count": 2}}},  # remeshes at steps 1, 2
        "inflow": {"u_mean": 1.0, "ramp_time": 0.05}, "time": {"dt": 0.01, "t_end": 0.08, "scheme": "characteristics2"},

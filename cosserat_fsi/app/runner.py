@@ -91,7 +91,8 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     sim.remesh_folder = out_dir / "meshes"
     # on the reference mesh (point A is found there; on a remeshed mesh where the checkpoint saw it)
-    observables = Observables(sim, np.asarray(meta["point_A"]) if remeshed and meta.get("point_A") else None)
+    observables = Observables(sim, np.asarray(meta["point_A"]) if remeshed and meta.get("point_A") else None,
+                              meta.get("solid_points") if remeshed else None)
     _signal_handlers(handlers)
     if restart:
         agree(comm, sim.restore, state)
@@ -127,19 +128,21 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             remesh = {}
             if sim.mesh_file is not None:  # a restart reads this mesh (and finds A where it was on it)
                 remesh = {"mesh": str(Path(sim.mesh_file).relative_to(out_dir)), "remeshes": sim.remeshes,
-                          "point_A": point_A_on_mesh}
+                          "point_A": point_A_on_mesh, "solid_points": solid_points_on_mesh}
             write_checkpoint(out_dir, sim, comm, {
                 "fingerprint": fingerprint, "rows": sim.step_count,
                 "field_steps": fields.num_steps if fields is not None else earlier_field_steps, **remesh})
 
     point_A_on_mesh = meta.get("point_A") if remeshed else None  # point A on the remeshed mesh's reference
+    solid_points_on_mesh = meta.get("solid_points") if remeshed else None  # likewise the named solid points
 
     def remeshed_to(sim, record):  # a new mesh: observables on it, a new topology in the fields
-        nonlocal observables, point_A_on_mesh
+        nonlocal observables, point_A_on_mesh, solid_points_on_mesh
         _signal_handlers(handlers)
         point_A = observables.point_A_now()
         point_A_on_mesh = None if point_A is None else point_A.tolist()
-        observables = Observables(sim, point_A)
+        solid_points_on_mesh = observables.solid_points_now()
+        observables = Observables(sim, point_A, solid_points_on_mesh)
         if fields is not None:
             fields.new_mesh(sim.mesh)
         log.info("t = %.6g: remesh %d (%s): minimum fluid cell quality %.4g -> %.4g, %d cells, %.3g s", record["t"],

@@ -34,7 +34,7 @@ class Histories:
         t = scene.time
         self.degree = t.quadrature_degree if t.characteristics == "quadrature" else None
         if self.degree:
-            self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (2,)))
+            self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (mesh.geometry.dim,)))
             self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.degree})
         else:
             self.velocity = dolfinx.fem.Function(V)
@@ -45,7 +45,8 @@ class Histories:
             S = sp.space("micro_rotation")
             at_quadrature = self.degree and not scene.micropolar.nodal_characteristics
             self.micro_rotation = dolfinx.fem.Function(
-                compat.quadrature_space(mesh, self.degree) if at_quadrature else S)
+                compat.quadrature_space(mesh, self.degree, (3,) if mesh.geometry.dim == 3 else ())
+                if at_quadrature else S)
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.micro else None, comm)
         self.earlier_locators = (self.chars.locator, self.chars.locator)
         self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
@@ -73,14 +74,14 @@ class Histories:
                 _set_quadrature(self.micro_rotation, hist[1])
         else:
             hist = self._values(alpha, degree, state, current, previous, solve_displacement)
-            n = chars.n_nodes
-            self.velocity.x.array[: n * 2] = hist[0].ravel()
+            n, bs = chars.n_nodes, self.velocity.function_space.dofmap.index_map_bs
+            self.velocity.x.array[: n * bs] = hist[0].ravel()
             self.velocity.x.scatter_forward()
         if self.omega_apart or (micro and not degree):
             values = (self._values(alpha, None, state, [state.micro_rotation], [state.micro_rotation_prev],
                                    solve_displacement)[0]
                       if self.omega_apart else hist[1])
-            self.micro_rotation.x.array[:] = chars.to_S(values[:, 0])
+            self.micro_rotation.x.array[:] = chars.to_S(values).ravel()
             self.micro_rotation.x.scatter_forward()
 
     def _values(self, alpha, degree, state, fns_n, fns_nm1, solve_displacement) -> list:
@@ -124,12 +125,13 @@ class Histories:
 
     # ------------------------------------------------------------- BDF2 at the quadrature points, compiled
     def _compiled_bdf2(self, current, previous) -> bool:
-        """Can the fused kernel do this step: numba on, 2D, P2 fields (u a 2-vector, ω a scalar)?"""
+        """Can the fused kernel do this step: numba on, 2D (``is_p2``: triangles), P2 fields (u a 2-vector,
+        ω a scalar)?"""
         loc = self.chars.locator
 
         def sizes(fns):
             return [f.function_space.dofmap.index_map_bs for f in fns]
-        return (characteristics.COMPILED and loc.x0 is not None and all(is_p2(loc, f) for f in current + previous)
+        return (characteristics.COMPILED and all(is_p2(loc, f) for f in current + previous)
                 and sizes(current) == sizes(previous) and sizes(current) in ([2], [2, 1]))
 
     def _bdf2_quadrature(self, state: State, fns_n, fns_nm1) -> None:
