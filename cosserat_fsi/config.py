@@ -204,6 +204,9 @@ class Time(_Section):
     ``corrector_passes`` (BDF2 with a solid): after the solve, move the mesh to the predicted Ω^{n+1},
     back-track again from there, linearise the solid stress around the predicted d^{n+1} and solve again
     (the kept factorisation preconditions it); 0 = one solve per step.
+    ``foot`` (BDF2): the feet of the characteristics as straight lines x − δt u*, x − 2δt u* (``euler``)
+    or by a midpoint (RK2) step with the velocity at the middle of each interval (``midpoint``:
+    scheme/histories.py ``bdf2_feet``; three more point evaluations per point).
     """
 
     dt: PositiveFloat | None = None
@@ -217,6 +220,7 @@ class Time(_Section):
     solid_linearisation: Literal["seed", "consistent"] = "seed"
     solve_configuration: Literal["bdf_base", "extrapolated"] = "bdf_base"
     corrector_passes: int = Field(default=0, ge=0, le=5)
+    foot: Literal["euler", "midpoint"] = "euler"
 
     @model_validator(mode="after")
     def _steady_defaults(self):
@@ -363,6 +367,8 @@ class Scene(_Section):
         if time.corrector_passes and (time.scheme != "characteristics2" or not self.has_solid):
             raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid "
                              f"(got scheme {time.scheme}{'' if self.has_solid else ', no solid'})")
+        if time.foot != "euler" and time.scheme != "characteristics2":
+            raise ValueError(f"time.foot: {time.foot!r} needs time.scheme 'characteristics2' (got {time.scheme})")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf

@@ -54,6 +54,8 @@ BAD = [
      "time.solid_linearisation: 'consistent' linearises around the BDF2 base configuration"),
     ("corrector_on_first_order", None, ["time.corrector_passes=1"],
      "time.corrector_passes: needs time.scheme 'characteristics2' and a solid"),
+    ("midpoint_foot_on_first_order", None, ["time.foot=midpoint"],
+     "time.foot: 'midpoint' needs time.scheme 'characteristics2'"),
     ("bad_geometry", None, ["geometry.name=foo"],
      "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct, "
      "schaefer_turek_3d (got 'foo')"),
