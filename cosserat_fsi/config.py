@@ -309,8 +309,9 @@ class ObservableSet(_Section):
 
     ``forces``: named boundaries whose force on the body (drag, lift: residual and surface forms) is
     reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
-    (columns ``u_NAME``, ``v_NAME``, ``p_NAME``); ``solid_points``: material points of the solid, the solid
-    node nearest to the given reference position, moving with it (``ux_NAME``, ``uy_NAME``: its displacement).
+    (columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with micropolar terms also ``omega_NAME``);
+    ``solid_points``: material points of the solid, the solid node nearest to the given reference position,
+    moving with it (``ux_NAME``, ``uy_NAME``: its displacement).
     """
 
     forces: list[str] = Field(default_factory=list)

@@ -63,7 +63,8 @@ class Observables:
         self._points = self._solid_points = None
         if named is not None and named.points:
             self._points = (list(named.points), np.array([[*xy, 0.0] for xy in named.points.values()]))
-            self.columns += [f"{c}_{name}" for name in named.points for c in ("u", "v", "p")]
+            probed = ("u", "v", "p", "omega") if sim.model.micro_rotation else ("u", "v", "p")
+            self.columns += [f"{c}_{name}" for name in named.points for c in probed]
         if named is not None and named.solid_points:
             where = {**named.solid_points, **(solid_points or {})}
             self._solid_points = {name: _nearest_solid_node(sim, np.asarray(where[name])) for name in
@@ -123,9 +124,14 @@ class Observables:
             out.update(zip(("ux_A", "uy_A", "uz_A"), self.comm.allreduce(local, op=MPI.SUM)))
         if self._points is not None:
             names, points = self._points
-            u, p = probe(self.sim.locator, [self.sim.velocity, self.sim.pressure], points, self.comm)
+            micro = self.sim.model.micro_rotation
+            fields = [self.sim.velocity, self.sim.pressure] + ([self.sim.micro_rotation] if micro else [])
+            values = probe(self.sim.locator, fields, points, self.comm)
+            u, p = values[0], values[1]
             for k, name in enumerate(names):
                 out[f"u_{name}"], out[f"v_{name}"], out[f"p_{name}"] = u[k, 0], u[k, 1], p[k, 0]
+                if micro:  # 2D: the scalar ω (3D: its z component)
+                    out[f"omega_{name}"] = values[2][k, -1]
         if self._solid_points is not None:
             d = self.sim.displacement.x.array.reshape(-1, 2)
             for name, node in self._solid_points.items():

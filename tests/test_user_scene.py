@@ -190,10 +190,39 @@ def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
 
 
 def test_perpendicular_flap_example_runs(repo_root):
-    """examples/perpendicular_flap (a .geo + boundaries) for 3 steps: the inflow pushes the flap downstream."""
-    scene = load_scene(repo_root / "examples" / "perpendicular_flap" / "flap.yaml", ["time.t_end=0.03"])
+    """examples/perpendicular_flap (a .geo + boundaries) for 3 steps on level 0 (the file ships level 1): the
+    inflow pushes the flap downstream."""
+    scene = load_scene(repo_root / "examples" / "perpendicular_flap" / "flap.yaml",
+                       ["time.t_end=0.03", "geometry.level=0"])
     series = _series(scene, 3)
     assert np.all(np.isfinite(series["drag"])) and series["drag"][-1] > 0
     assert series["energy_kinetic"][-1] > 0 and series["ux_tip"][-1] > 0
     # mass conservation: the flow rate is the inflow's 10 m/s × 4 m at every step (an incompressible fluid)
     assert np.allclose(series["flow_rate"], 40.0, rtol=1e-4), series["flow_rate"]
+
+
+@pytest.mark.parametrize("walls", ["zero", "half_curl"])
+def test_sudden_expansion_example_develops_into_exact_poiseuille(repo_root, walls):
+    """examples/sudden_expansion (a micropolar fluid through a backward-facing step, steady Newton on level 0):
+    far behind the step the flow is developed again. ω = 0 on the walls: micropolar Poiseuille flow
+    (shared/reference/micropolar_exact.md §1) with the inlet's flow rate 1 in the channel of half-height 1;
+    ω = ½ curl u on the walls: Newtonian Poiseuille with viscosity μ (u = 0.75 on the axis, ω = 0.375 at
+    y = 1.5). The probes at x = 13 within 1e-3 (measured: 1e-5 .. 1e-4)."""
+    from cosserat_fsi.exact import MicropolarPoiseuille
+
+    scene = load_scene(repo_root / "examples" / "sudden_expansion" / "expansion.yaml",
+                       [f"boundaries.walls.micro_rotation={walls}", f"boundaries.step.micro_rotation={walls}"])
+    series = _series(scene, 1)
+    assert series["flow_rate"][-1] == pytest.approx(1.0, rel=1e-5)  # the inlet profile's flow rate
+    m = scene.micropolar
+    if walls == "zero":
+        unit = MicropolarPoiseuille(1.0, 1.0, scene.fluid.mu, m.mu_r, m.lambda1, 0.0)
+        exact = MicropolarPoiseuille(1.0 / unit.flow_rate(), 1.0, scene.fluid.mu, m.mu_r, m.lambda1, 0.0)
+        (u_axis, _), (_, w_upper) = (exact.profiles(np.array([[0.0], [y]])) for y in (1.0, 1.5))
+        u_axis, w_upper = float(u_axis[0]), float(w_upper[0])
+        assert u_axis == pytest.approx(0.7872523, abs=1e-7)  # 5 % above the Newtonian 0.75
+    else:
+        u_axis, w_upper = 0.75, 0.375
+    assert series["u_centre"][-1] == pytest.approx(u_axis, rel=1e-3)
+    assert series["omega_upper"][-1] == pytest.approx(w_upper, rel=1e-3)
+    assert abs(series["v_centre"][-1]) < 1e-3 and abs(series["omega_centre"][-1]) < 1e-3  # developed, symmetric
