@@ -1,7 +1,8 @@
 """A user's own scene (issue 17): ``geometry: {name: file, path: ...}`` with physical names.
 
 The .geo is meshed through gmsh with its names (areas, lengths, the interface found from the cells); the
-built-in Turek–Hron FSI3 mesh given back as a user file gives the same time series as the preset to 1e-10;
+built-in Turek–Hron FSI3 mesh given back as a user file, and the same geometry written by hand as a .geo
+(the same mesh bit for bit), give the same time series as the preset to 1e-10;
 a file scene gives the same numbers on 1 and 2 ranks. Bad files: tests/faults/test_input.py (FILE_SCENES).
 """
 
@@ -122,18 +123,49 @@ INFLOW = "12*y*(0.41 - y)/0.41**2 * (1 - cos(pi*min(t, 0.1)/0.1))/2"
 """The preset's parabolic inflow of mean 2 with its cosine ramp over 0.1 s (the test's ramp_time)."""
 
 
+TUREK_HRON_GEO = DATA / "turek_hron.geo"
+"""The Turek–Hron geometry written by hand as a user's .geo (the generator's gmsh operations and options)."""
+
+
+def _nodes_and_triangles(path):
+    """Node coordinates (by node tag) and triangles (node tags) of a .msh, as gmsh reads them."""
+    import gmsh
+
+    gmsh.initialize(["gmsh"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        tags, x, _ = gmsh.model.mesh.getNodes()
+        _, triangles = gmsh.model.mesh.getElementsByType(2)
+    finally:
+        gmsh.finalize()
+    return x.reshape(-1, 3)[np.argsort(tags)], np.sort(tags), triangles.reshape(-1, 3)
+
+
+def test_hand_written_turek_hron_geo_gives_the_preset_mesh(tmp_path):
+    """tests/data/user_scene/turek_hron.geo, meshed as a user's file, is the built-in level-0 mesh bit for bit:
+    the same 784 nodes (coordinates equal, not close) and the same 1447 triangles, on either stack's gmsh."""
+    from cosserat_fsi.geometry import TurekHron
+
+    preset = _nodes_and_triangles(build_msh(TurekHron(level=0, flag="solid"), tmp_path))
+    user = _nodes_and_triangles(build_msh(validate_geometry({"name": "file", "path": str(TUREK_HRON_GEO)}), tmp_path))
+    assert len(preset[0]) == 784 and len(preset[2]) == 1447
+    for a, b in zip(preset, user):
+        assert a.shape == b.shape and np.array_equal(a, b)
+
+
 @pytest.mark.slow
 def test_turek_hron_fsi3_equals_its_user_file_twin_with_boundaries(repo_root, tmp_path):
-    """The same over 200 steps (issue 17, item 4), with the conditions written in a boundaries section (the
-    inflow, profile and ramp, as an expression of y and t; no-slip walls and cylinder; a do-nothing outlet)
-    and the observables named: the force on the cylinder and the wetted flag, the flag's tip A as a solid
-    point (the preset's ux_A, uy_A). The preset's own conditions are the same mechanism
-    (geometry/presets.py), so the two runs go through one boundary path."""
+    """The same over 200 steps (issue 17, item 4), the twin written by hand: the .geo above (the geometry,
+    not the preset's mesh file) and the conditions in a boundaries section (the inflow, profile and ramp, as an
+    expression of y and t; no-slip walls and cylinder; a do-nothing outlet) and the observables named: the
+    force on the cylinder and the wetted flag, the flag's tip A as a solid point (the preset's ux_A, uy_A).
+    The preset's own conditions are the same mechanism (geometry/presets.py), so the two runs go through one
+    boundary path."""
     preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
                         ["geometry.level=0", "time.dt=0.01", "time.t_end=2.0", "inflow.ramp_time=0.1"])
-    msh = MPI.COMM_WORLD.bcast(build_msh(preset.geometry) if MPI.COMM_WORLD.rank == 0 else None)
     data = preset.model_dump(mode="json")
-    data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(msh)}, boundaries={
+    data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(TUREK_HRON_GEO)}, boundaries={
         "inlet": {"type": "velocity", "value": [INFLOW, 0]}, "outlet": {"type": "do_nothing"},
         "walls": {"type": "no_slip"}, "cylinder": {"type": "no_slip"}},
         observables={"forces": ["cylinder"], "wetted_solid": True, "solid_points": {"A": [0.6, 0.2]},
