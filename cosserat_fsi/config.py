@@ -159,7 +159,7 @@ class Solid(_Section):
     gravity: float = 0.0
     gravity_ramp_time: NonNegFloat = 0.0
     volume_correction: bool = True
-    initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # 3 in 3D
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
 
 
@@ -416,6 +416,12 @@ class Scene(_Section):
                 dim == 2 or "body_force" in self.fluid.model_fields_set):
             raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
                              f"(got {len(self.fluid.body_force)})")
+        if self.solid is not None and len(self.solid.initial_velocity) != dim and (
+                dim == 2 or "initial_velocity" in self.solid.model_fields_set):
+            raise ValueError(f"solid.initial_velocity: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.solid.initial_velocity)})")
+        if dim == 3 and self.solid is not None and self.solid.mesh_motion.remesh is not None:
+            raise ValueError("solid.mesh_motion.remesh: remeshing is 2D only (the 3D mesh motion runs without it)")
         if dim == 2 and isinstance(m.body_couple, list):
             raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
         if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):

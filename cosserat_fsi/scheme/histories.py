@@ -239,7 +239,7 @@ class Histories:
         self.chars.locator.update()
         if state.configuration_n is not None:
             self.earlier_locators = tuple(
-                PointLocator(self.chars.locator.mesh, motion.X0 + f.x.array.reshape(-1, 2)[motion.node_dof])
+                PointLocator(self.chars.locator.mesh, motion.X0 + f.x.array.reshape(-1, motion.dim)[motion.node_dof])
                 for f in (state.configuration_n, state.configuration_nm1))
 
 
