@@ -175,7 +175,7 @@ def test_midpoint_feet_are_second_order_on_a_rotation(monkeypatch, compiled):
         for comp in (0, 1):
             for k, (now, before) in enumerate(((state.micro_rotation, state.micro_rotation_prev),
                                                (state.micro_rotation_prev, state.micro_rotation))):
-                now.interpolate(lambda X: X[comp])
+                now.interpolate(lambda X, comp=comp: X[comp])
                 before.x.array[:] = 0.0
                 h.update(1.5, state)
                 feet[:, k, comp] = h.micro_rotation.x.array[qdofs] / (2.0 if k == 0 else -0.5)
