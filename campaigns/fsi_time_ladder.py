@@ -9,7 +9,9 @@ two), the observed order of the amplitude against the finest run of each ladder,
     python campaigns/fsi_time_ladder.py --ladder fsi3-seed --runs /tmp/ladder --md docs/perf/issue12/ladder.md
     python campaigns/fsi_time_ladder.py --read DIR [DIR ...]      # analyse finished runs only
     python campaigns/fsi_time_ladder.py --continue DIR --seconds 1.5 --set time.quadrature_degree=12 --out D
-        # diagnosis: continue DIR's checkpoint with other options at the same δt (a restart refuses them)
+        # diagnosis: continue DIR's checkpoint with other options (a restart refuses them), also another δt
+    python campaigns/fsi_time_ladder.py --continuations cfd3-dt --from DIR --runs R --md T.md  # session 12's
+    python campaigns/fsi_time_ladder.py --foot-map DIR --dts 0.0025 0.002  # the foot maps in DIR's flow
 """
 
 from __future__ import annotations
@@ -18,9 +20,11 @@ import argparse
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from cosserat_fsi.analysis import periodic_analysis
 
@@ -37,6 +41,29 @@ LADDERS = {
                                                         "time.t_end": 7.0}) for dt in DTS],
     "cfd3": [(f"cfd3-L1-c2-dt{dt}", *CFD3_L1, {"time.dt": dt, "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002,
                                                                                           0.001)],
+}
+
+
+# Issue 12, session 12: continuations of a developed checkpoint (--continuations NAME --from DIR): (case, seconds,
+# overrides, the case whose checkpoint it continues or None for DIR). cfd3-*: DIR = a CFD3 L1 BDF2 run at
+# δt = 0.0025 with a checkpoint at t = 15; fsi3-*: DIR = FSI3 seed, BDF2 extrapolated, δt = 0.004, checkpoint at
+# t = 5 (run it to t_end = 5.004 with output.checkpoint_every = 1250: the last step writes no checkpoint).
+_CORR = ["time.solve_configuration=bdf_base", "time.corrector_passes=1"]
+CONTINUATIONS = {
+    "cfd3-feet": [(f"cfd3-{foot}-q{q}", 2.0, [f"time.foot={foot}", f"time.quadrature_degree={q}"], None)
+                  for q in (8, 12) for foot in ("euler", "midpoint")]
+    + [("cfd3-midpoint-q8-long", 4.0, ["time.foot=midpoint"], None)],
+    "cfd3-dt": [(f"cfd3-{foot}-dt{dt}", 2.0, [f"time.dt={dt}", f"time.foot={foot}"], None)
+                for foot, dts in (("euler", (0.002, 0.00125, 0.000625)), ("midpoint", (0.002, 0.00125)))
+                for dt in dts] + [
+               ("cfd3-euler-dt0.00125-4s", 3.5, ["time.dt=0.00125"], None),
+               ("cfd3-back-to-0.0025", 2.5, ["time.dt=0.0025"], "cfd3-euler-dt0.00125-4s")],
+    "fsi3-dt": [(f"fsi3-extrap-dt{dt}", seconds, [f"time.dt={dt}"], None)
+                for dt, seconds in ((0.0035, 2.0), (0.0045, 1.5), (0.005, 2.0), (0.0055, 1.5))] + [
+               ("fsi3-extrap-back-to-0.004", 1.5, ["time.dt=0.004"], "fsi3-extrap-dt0.005"),
+               ("fsi3-corr1-dt0.0045", 1.5, ["time.dt=0.0045"] + _CORR, None)],
+    "cfd3-cost": [(f"cost-cfd3-{foot}-q{q}", 0.25, [f"time.foot={foot}", f"time.quadrature_degree={q}"], None)
+                  for foot, q in (("euler", 8), ("midpoint", 8), ("euler", 12), ("midpoint", 12))],
 }
 
 
@@ -62,7 +89,7 @@ def analyse(out: Path) -> dict:
     name = "uy_A" if "uy_A" in names else "lift"
     t, y = data[:, 0], data[:, names.index(name)]
     ref_a, ref_f = REFERENCE[name]
-    row = {"run": out.name, "observable": name, "t_end": float(t[-1]), "dt": float(t[1] - t[0])}
+    row = {"run": out.name, "observable": name, "t_end": float(t[-1]), "dt": float(t[-1] - t[-2])}
     for key, cut in (("", t[-1]), ("_1s_earlier", t[-1] - 1.0)):
         keep = t <= cut
         r = periodic_analysis(t[keep], y[keep]) if keep.sum() > 10 else {"amplitude": None}
@@ -75,6 +102,7 @@ def analyse(out: Path) -> dict:
     if summary.exists():
         s = json.loads(summary.read_text())
         row["s_per_step"] = s["wall_time"]["per_step"]
+        row["backtrack_per_step"] = s["wall_time"].get("phases_per_step", {}).get("backtrack")
         row["vertices"] = s["mesh"]["vertices"]
         row["status"] = s["status"]
     return row
@@ -87,7 +115,7 @@ def _pct(x):
 def table(rows: list[dict]) -> str:
     finest = min(rows, key=lambda r: r["dt"])
     lines = ["| run | δt | to t | amplitude | error | frequency | error | amplitude error 1 s earlier "
-             "| order vs finest | s/step |", "|---|---|---|---|---|---|---|---|---|---|"]
+             "| order vs finest | s/step | back-tracking s/step |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in sorted(rows, key=lambda r: -r["dt"]):
         order = "–"
         if r is not finest and r["amplitude"] is not None and finest["amplitude"] is not None:
@@ -102,18 +130,89 @@ def table(rows: list[dict]) -> str:
         fr = "–" if r["frequency"] is None else f"{r['frequency']:.4g}"
         lines.append(f"| {r['run']} | {r['dt']:g} | {r['t_end']:g} | {amp} | {_pct(r['amplitude_error'])} | {fr} | "
                      f"{_pct(r['frequency_error'])} | {_pct(r['amplitude_error_1s_earlier'])} | {order} | "
-                     f"{r.get('s_per_step', float('nan')):.3f} |")
+                     f"{r.get('s_per_step', float('nan')):.3f} | {r.get('backtrack_per_step') or float('nan'):.4f} |")
+    return "\n".join(lines)
+
+
+def rescale_history(sim, dt_old: float) -> None:
+    """Continue a BDF2 checkpoint at another δt: each t^{n−1} level (u, ω, d, the configuration and the
+    mesh displacement) is replaced by the linear interpolation f^n − (δt/δt_old)(f^n − f^{n−1}) between
+    the saved levels, an O(δt²) start-up perturbation; ``step_count`` becomes t/δt."""
+    state, r = sim.state, sim.scene.time.dt / dt_old
+    pairs = [(state.velocity, state.velocity_prev), (state.micro_rotation, state.micro_rotation_prev),
+             (state.displacement, state.displacement_prev), (state.configuration_n, state.configuration_nm1)]
+    if state.motion is not None and state.mesh_displacement_prev is not None:
+        pairs.append((state.motion.state_functions()["mesh_displacement"], state.mesh_displacement_prev))
+    for now, before in pairs:
+        if now is not None and before is not None:
+            before.x.array[:] = now.x.array - r * (now.x.array - before.x.array)
+    state.step_count = int(round(state.t / sim.scene.time.dt))
+
+
+def _percentile(values: np.ndarray, weights: np.ndarray, q: float = 0.99) -> float:
+    order = np.argsort(values)
+    cumulative = np.cumsum(weights[order]) / weights.sum()
+    return float(values[order][np.searchsorted(cumulative, q)])
+
+
+def foot_map(run_dir: Path, dts: list[float]) -> str:
+    """How far the BDF2 foot maps x → x − kδt u* (k = 1, 2) are from the identity in the checkpointed
+    flow of ``run_dir``, for each δt: with ∇u* at the cell centroids (u* = 2u^n − u^{n−1}, P2 on affine
+    triangles), div u = 0 gives det(I − s∇u*) = 1 + s² det ∇u*, so the straight-line map over s = 2δt
+    folds (det ≤ 0, feet crossing) where s √(−det ∇u*) ≥ 1 (strain-dominated), and its rotation error
+    (s ω)²/2 is large where s √(det ∇u*) is (vortex cores). A markdown table of the maxima of both numbers
+    over the mesh, where the maximum is, and the areas where the strain number exceeds ½ and 1."""
+    from mpi4py import MPI
+
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.io.checkpoint import read_checkpoint
+    from cosserat_fsi.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
+    meta, states = read_checkpoint(run_dir, comm, fingerprint)
+    scene = load_scene(run_dir / "config.yaml")
+    mesh, ct, ft, _ = load_mesh(scene, comm)
+    sim = Simulation(scene, mesh, ct, ft, comm)
+    sim.restore(states)
+    loc = sim.stepper.histories.chars.locator
+    u = sim.state.velocity
+    dofs = loc.dofs(u.function_space)
+    star = (2.0 * u.x.array - sim.state.velocity_prev.x.array).reshape(-1, 2)
+    Ji = loc.Jinv.reshape(-1, 2, 2)  # rows: ∇λ1, ∇λ2
+    g = [-Ji[:, 0] - Ji[:, 1], Ji[:, 0], Ji[:, 1]]  # ∇λ0, ∇λ1, ∇λ2
+    third = 1.0 / 3.0  # P2 basis gradients at the centroid (λ = ⅓): vertices (4λ−1)∇λ, edges 4(λj∇λk + λk∇λj)
+    grads = [third * g[0], third * g[1], third * g[2], 4 * third * (g[1] + g[2]), 4 * third * (g[0] + g[2]),
+             4 * third * (g[0] + g[1])]
+    grad_u = sum(star[dofs[:, k]][:, :, None] * grads[k][:, None, :] for k in range(6))  # (cells, i, j) = ∂_j u_i
+    det = grad_u[:, 0, 0] * grad_u[:, 1, 1] - grad_u[:, 0, 1] * grad_u[:, 1, 0]
+    area = 0.5 * np.abs(np.linalg.det(loc.J))
+    centre = loc.x0 + loc.J.sum(axis=2) / 3.0
+    strain, rotation = np.sqrt(np.maximum(-det, 0.0)), np.sqrt(np.maximum(det, 0.0))
+    at, at_r = centre[np.argmax(strain)], centre[np.argmax(rotation)]
+    lines = [f"foot maps of {run_dir.name} at t = {sim.t:g}: max √(−det ∇u*) = {strain.max():.4g} /s at "
+             f"({at[0]:.3f}, {at[1]:.3f}), max √(det ∇u*) = {rotation.max():.4g} /s at ({at_r[0]:.3f}, "
+             f"{at_r[1]:.3f}); 99th percentiles (by area) {_percentile(strain, area):.4g}, "
+             f"{_percentile(rotation, area):.4g} /s", "",
+             "| δt | 2δt·max √(−det ∇u*) (fold at 1) | area where > ½ | area where > 1 | 2δt·max √(det ∇u*) |",
+             "|---|---|---|---|---|"]
+    for dt in dts:
+        s2 = 2.0 * dt
+        lines.append(f"| {dt:g} | {s2 * strain.max():.3f} | {1e4 * area[s2 * strain > 0.5].sum():.3g} cm² | "
+                     f"{1e4 * area[s2 * strain > 1.0].sum():.3g} cm² | {s2 * rotation.max():.3f} |")
     return "\n".join(lines)
 
 
 def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path) -> Path:
-    """Continue the checkpoint of ``run_dir`` for ``seconds`` with ``overrides`` (same δt); write
+    """Continue the checkpoint of ``run_dir`` for ``seconds`` with ``overrides`` (another δt: the BDF2
+    levels re-interpolated, ``rescale_history``); write
     ``out``/timeseries.csv (the run's series up to the checkpoint, then the new steps) and summary.json."""
 
     from mpi4py import MPI
 
-    from cosserat_fsi.config import load_scene
     from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import dump_resolved, load_scene
     from cosserat_fsi.io.checkpoint import read_checkpoint
     from cosserat_fsi.observables import Observables
     from cosserat_fsi.simulation import Simulation
@@ -125,19 +224,39 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
     mesh, ct, ft, _ = load_mesh(scene, comm)
     sim = Simulation(scene, mesh, ct, ft, comm)
     obs = Observables(sim)
-    sim.restore(states)
+    sim.state.restore(states, float(abs(sim.mesh.geometry.x).max()))
+    dt_old = float(yaml.safe_load((run_dir / "config.yaml").read_text())["time"]["dt"])
+    if abs(scene.time.dt - dt_old) > 1e-12 * dt_old:
+        rescale_history(sim, dt_old)
+    sim.stepper.restored()
     with open(run_dir / "timeseries.csv") as f:
         header = f.readline().strip().split(",")
     old = np.loadtxt(run_dir / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
     old = old[old[:, 0] <= sim.t + 1e-9]
-    rows = []
-    sim.run(sim.steps_to(sim.t + seconds),
-            observers=[lambda sim: rows.append([sim.t] + [obs.evaluate()[k] for k in header[1:]])])
+    rows, observing = [], [0.0]
+
+    def observe(sim):
+        tic = time.perf_counter()
+        values = obs.evaluate()
+        rows.append([sim.t] + [values[k] for k in header[1:]])
+        observing[0] += time.perf_counter() - tic
+
+    start, steps = time.perf_counter(), sim.step_count
+    sim.run(sim.steps_to(sim.t + seconds), observers=[observe])
+    n_steps = max(1, sim.step_count - steps)
+    per_step = (time.perf_counter() - start - observing[0]) / n_steps  # without observing
+    phases = {k: v / n_steps for k, v in sim.timers.totals.items()}
     out.mkdir(parents=True, exist_ok=True)
     np.savetxt(out / "timeseries.csv", np.vstack([old, np.array(rows)]), delimiter=",", header=",".join(header),
                comments="")
-    (out / "summary.json").write_text(json.dumps({"status": "completed", "overrides": overrides,
-                                                  "from": str(run_dir), "wall_time": {"per_step": float("nan")},
+    from cosserat_fsi.io.checkpoint import scene_fingerprint, write_checkpoint
+
+    (out / "config.yaml").write_text(dump_resolved(scene))  # so that ``out`` can be continued in turn
+    write_checkpoint(out, sim, comm, {"fingerprint": scene_fingerprint(scene), "rows": sim.step_count,
+                                      "field_steps": 0})
+    wall = {"per_step": per_step, "phases_per_step": phases}
+    (out / "summary.json").write_text(json.dumps({"status": "completed", "overrides": overrides, "from": str(run_dir),
+                                                  "wall_time": wall,
                                                   "mesh": {"vertices": mesh.topology.index_map(0).size_global}}))
     return out
 
@@ -152,9 +271,21 @@ def main(argv=None) -> int:
     p.add_argument("--seconds", type=float, default=1.5)
     p.add_argument("--set", dest="sets", action="append", default=[])
     p.add_argument("--out", type=Path)
+    p.add_argument("--continuations", choices=sorted(CONTINUATIONS), help="continue --from DIR's checkpoint")
+    p.add_argument("--from", dest="origin", type=Path)
+    p.add_argument("--foot-map", dest="foot_map", type=Path, help="checkpointed run: the foot maps' numbers")
+    p.add_argument("--dts", type=float, nargs="*", default=[0.005, 0.004, 0.0025, 0.002, 0.00125, 0.000625])
     a = p.parse_args(argv)
+    if a.foot_map:
+        print(foot_map(a.foot_map, a.dts))
+        return 0
     if a.cont:
         a.read.append(continue_with(a.cont, a.sets, a.seconds, a.out))
+    for case, seconds, sets, source in CONTINUATIONS.get(a.continuations, []):
+        out = a.runs / case
+        if not (out / "summary.json").exists():
+            continue_with(a.runs / source if source else a.origin, sets, seconds, out)
+        a.read.append(out)
     outs = [run(c, cfg, base, extra, a.runs) for c, cfg, base, extra in LADDERS[a.ladder]] if a.ladder else []
     rows = [analyse(o) for o in outs + a.read if (o / "timeseries.csv").exists()]
     text = table(rows)

@@ -134,14 +134,16 @@ def quadrature_space(mesh, degree: int, shape: tuple = ()):
 
 
 @functools.cache
-def quadrature_points(degree: int) -> np.ndarray:
-    """Reference points (triangle) of the default rule of ``degree``, in the order of quadrature_space."""
+def quadrature_points(degree: int, tdim: int = 2) -> np.ndarray:
+    """Reference points of the default rule of ``degree`` on the triangle (``tdim`` 2) or tetrahedron (3),
+    in the order of quadrature_space."""
     import basix
 
+    cell = basix.CellType.triangle if tdim == 2 else basix.CellType.tetrahedron
     if NEW:
-        points, _ = basix.make_quadrature(basix.CellType.triangle, degree)
+        points, _ = basix.make_quadrature(cell, degree)
     else:
-        points, _ = basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.triangle, degree)
+        points, _ = basix.make_quadrature(basix.QuadratureType.Default, cell, degree)
     return np.asarray(points)
 
 

@@ -159,7 +159,7 @@ class Solid(_Section):
     gravity: float = 0.0
     gravity_ramp_time: NonNegFloat = 0.0
     volume_correction: bool = True
-    initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=2)
+    initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # 3 in 3D
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
 
 
@@ -204,6 +204,9 @@ class Time(_Section):
     ``corrector_passes`` (BDF2 with a solid): after the solve, move the mesh to the predicted Ω^{n+1},
     back-track again from there, linearise the solid stress around the predicted d^{n+1} and solve again
     (the kept factorisation preconditions it); 0 = one solve per step.
+    ``foot`` (BDF2): the feet of the characteristics as straight lines x − δt u*, x − 2δt u* (``euler``)
+    or by a midpoint (RK2) step with the velocity at the middle of each interval (``midpoint``:
+    scheme/histories.py ``bdf2_feet``; three more point evaluations per point).
     """
 
     dt: PositiveFloat | None = None
@@ -217,6 +220,7 @@ class Time(_Section):
     solid_linearisation: Literal["seed", "consistent"] = "seed"
     solve_configuration: Literal["bdf_base", "extrapolated"] = "bdf_base"
     corrector_passes: int = Field(default=0, ge=0, le=5)
+    foot: Literal["euler", "midpoint"] = "euler"
 
     @model_validator(mode="after")
     def _steady_defaults(self):
@@ -305,8 +309,9 @@ class ObservableSet(_Section):
 
     ``forces``: named boundaries whose force on the body (drag, lift: residual and surface forms) is
     reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
-    (columns ``u_NAME``, ``v_NAME``, ``p_NAME``); ``solid_points``: material points of the solid, the solid
-    node nearest to the given reference position, moving with it (``ux_NAME``, ``uy_NAME``: its displacement).
+    (columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with micropolar terms also ``omega_NAME``);
+    ``solid_points``: material points of the solid, the solid node nearest to the given reference position,
+    moving with it (``ux_NAME``, ``uy_NAME``: its displacement).
     """
 
     forces: list[str] = Field(default_factory=list)
@@ -362,6 +367,8 @@ class Scene(_Section):
         if time.corrector_passes and (time.scheme != "characteristics2" or not self.has_solid):
             raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid "
                              f"(got scheme {time.scheme}{'' if self.has_solid else ', no solid'})")
+        if time.foot != "euler" and time.scheme != "characteristics2":
+            raise ValueError(f"time.foot: {time.foot!r} needs time.scheme 'characteristics2' (got {time.scheme})")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
@@ -405,13 +412,16 @@ class Scene(_Section):
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
         m = self.micropolar
         dim = geo.DIM
-        if dim == 3 and time.scheme != "steady":
-            raise ValueError(f"time.scheme: the 3D geometry {geo.name} runs with the steady solver for now (the "
-                             f"characteristics back-tracking is 2D only; got {time.scheme})")
         if self.fluid is not None and len(self.fluid.body_force) != dim and (
                 dim == 2 or "body_force" in self.fluid.model_fields_set):
             raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
                              f"(got {len(self.fluid.body_force)})")
+        if self.solid is not None and len(self.solid.initial_velocity) != dim and (
+                dim == 2 or "initial_velocity" in self.solid.model_fields_set):
+            raise ValueError(f"solid.initial_velocity: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.solid.initial_velocity)})")
+        if dim == 3 and self.solid is not None and self.solid.mesh_motion.remesh is not None:
+            raise ValueError("solid.mesh_motion.remesh: remeshing is 2D only (the 3D mesh motion runs without it)")
         if dim == 2 and isinstance(m.body_couple, list):
             raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
         if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):

@@ -24,7 +24,8 @@ import ufl
 # geometry/schaefer_turek_3d.py's a1, a2)
 DP_POINTS = np.array([[0.15, 0.2, 0.0], [0.25, 0.2, 0.0]])
 BODY = ("cylinder", "interface")
-POINT_A = {"turek_hron": (0.6, 0.2), "flag": None}  # flag: (length, thickness/2), from the mesh
+POINT_A = {"turek_hron": (0.6, 0.2), "flag": None, "turek_hron_3d": None}  # flag: (length, thickness/2), from
+# the mesh; turek_hron_3d: the middle of the flag's tip (its describe())
 
 
 class Observables:
@@ -58,11 +59,12 @@ class Observables:
         if sim.model.solid and scene.geometry.name in POINT_A:
             self._node_A = _owned_node(sim, _point_A(sim) if point_A is None else point_A)
             self._space_A = sim.velocity.function_space
-            self.columns += ["ux_A", "uy_A"]
+            self.columns += ["ux_A", "uy_A"] + (["uz_A"] if mesh.geometry.dim == 3 else [])
         self._points = self._solid_points = None
         if named is not None and named.points:
             self._points = (list(named.points), np.array([[*xy, 0.0] for xy in named.points.values()]))
-            self.columns += [f"{c}_{name}" for name in named.points for c in ("u", "v", "p")]
+            probed = ("u", "v", "p", "omega") if sim.model.micro_rotation else ("u", "v", "p")
+            self.columns += [f"{c}_{name}" for name in named.points for c in probed]
         if named is not None and named.solid_points:
             where = {**named.solid_points, **(solid_points or {})}
             self._solid_points = {name: _nearest_solid_node(sim, np.asarray(where[name])) for name in
@@ -98,7 +100,8 @@ class Observables:
         """The current position of point A (the node it was found at, on that mesh as it is now)."""
         if self._node_A is None:
             return None
-        x = self._space_A.tabulate_dof_coordinates()[self._node_A, :2] if self._node_A >= 0 else np.zeros(2)
+        dim = self.sim.mesh.geometry.dim
+        x = self._space_A.tabulate_dof_coordinates()[self._node_A, :dim] if self._node_A >= 0 else np.zeros(dim)
         return self.comm.allreduce(x, op=MPI.SUM)
 
     def solid_points_now(self) -> dict | None:
@@ -115,14 +118,20 @@ class Observables:
             forces = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._force_forms]
             out.update(zip(("drag", "lift", "drag_surface", "lift_surface"), forces))
         if self._node_A is not None:
-            d = self.sim.displacement.x.array.reshape(-1, 2)
-            local = d[self._node_A] if self._node_A >= 0 else np.zeros(2)
-            out["ux_A"], out["uy_A"] = self.comm.allreduce(local, op=MPI.SUM)
+            dim = self.sim.mesh.geometry.dim
+            d = self.sim.displacement.x.array.reshape(-1, dim)
+            local = d[self._node_A] if self._node_A >= 0 else np.zeros(dim)
+            out.update(zip(("ux_A", "uy_A", "uz_A"), self.comm.allreduce(local, op=MPI.SUM)))
         if self._points is not None:
             names, points = self._points
-            u, p = probe(self.sim.locator, [self.sim.velocity, self.sim.pressure], points, self.comm)
+            micro = self.sim.model.micro_rotation
+            fields = [self.sim.velocity, self.sim.pressure] + ([self.sim.micro_rotation] if micro else [])
+            values = probe(self.sim.locator, fields, points, self.comm)
+            u, p = values[0], values[1]
             for k, name in enumerate(names):
                 out[f"u_{name}"], out[f"v_{name}"], out[f"p_{name}"] = u[k, 0], u[k, 1], p[k, 0]
+                if micro:  # 2D: the scalar ω (3D: its z component)
+                    out[f"omega_{name}"] = values[2][k, -1]
         if self._solid_points is not None:
             d = self.sim.displacement.x.array.reshape(-1, 2)
             for name, node in self._solid_points.items():
@@ -171,6 +180,8 @@ def _point_A(sim):
     """Point A: the flag's tip (0.6, 0.2) for Turek–Hron; (length, thickness/2) for the flag alone."""
     if sim.scene.geometry.name == "turek_hron":
         return np.array(POINT_A["turek_hron"])
+    if sim.scene.geometry.name == "turek_hron_3d":
+        return np.array(sim.scene.geometry.describe()["points"]["A"])
     x = sim.mesh.geometry.x
     xmax = sim.comm.allreduce(x[:, 0].max(), op=MPI.MAX)
     ymax = sim.comm.allreduce(x[:, 1].max(), op=MPI.MAX)
@@ -181,7 +192,7 @@ def _owned_node(sim, point):
     """Local index of the owned velocity node at ``point`` (a mesh vertex), or −1 on other ranks."""
     V = sim.velocity.function_space
     n_owned = V.dofmap.index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n_owned, :2]
+    x = V.tabulate_dof_coordinates()[:n_owned, :len(point)]
     dist = np.linalg.norm(x - point, axis=1) if n_owned else np.array([np.inf])
     i = int(np.argmin(dist))
     found = bool(dist[i] < 1e-10)

@@ -99,12 +99,14 @@ def _wobble(X, t):
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("foot", ["euler", "midpoint"])
 @pytest.mark.parametrize("moving", [False, True], ids=["fixed", "moving"])
-def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
+def test_fused_bdf2_history_equals_numpy(monkeypatch, moving, foot):
     """The fused BDF2 kernel (histories.py → _kernels.bdf2_quadrature: u*, feet, both evaluations and
     2v₁ − ½v₂ written into the quadrature functions) gives the numpy path's α h of u and ω to round-off
     (in practice bit for bit), on a fixed and on a moving mesh, with feet beyond the inflow (pulled back),
-    and under 2 ranks on other ranks: the points the kernel's walks cannot finish take the general path."""
+    and under 2 ranks on other ranks: the points the kernel's walks cannot finish take the general path;
+    with straight-line and with midpoint feet (``time.foot``)."""
     if not _kernels.ENABLED:
         pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1): no compiled path to compare")
     from cosserat_fsi.app.runner import load_mesh
@@ -114,7 +116,7 @@ def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
     comm = MPI.COMM_WORLD
     scene = validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "inflow": {"u_mean": 1.0}, "micropolar": {"mu_r": 0.1, "lambda1": 0.01},
-                            "time": {"dt": 0.05, "t_end": 0.2, "scheme": "characteristics2"}})
+                            "time": {"dt": 0.05, "t_end": 0.2, "scheme": "characteristics2", "foot": foot}})
     sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm, prescribed_motion=_wobble if moving else None)
     sim.run(3)
     stepper, h = sim.stepper, sim.stepper.histories
@@ -137,6 +139,60 @@ def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
     for a, b in zip(ref, ours):
         assert np.isfinite(a).all() and np.isfinite(b).all()
         assert np.abs(a - b).max() <= 1e-14 * np.abs(a).max()
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["numpy", "compiled"])
+def test_midpoint_feet_are_second_order_on_a_rotation(monkeypatch, compiled):
+    """Solid-body rotation u = Ω(−(y − ½), x − ½) (steady, linear: P2 holds it exactly, so α h carries the
+    feet without interpolation error): the exact feet are x rotated by −Ωδt and −2Ωδt about the centre.
+    The feet are read back through the BDF2 history of ω: with ω^n = x (or y) and ω^{n−1} = 0 the history
+    is 2X¹ₓ, with ω^n = 0 and ω^{n−1} = x it is −½X²ₓ. Over the points within 0.3 of the centre, for δt =
+    0.04, 0.02, 0.01: the straight feet's error falls as δt² (the trajectory error per unit time, error/δt,
+    as δt: first order), the midpoint feet's as δt³ (per unit time: second order); rates within ±0.1."""
+    if compiled and not _kernels.ENABLED:
+        pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1)")
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import validate_scene
+    from cosserat_fsi.simulation import Simulation
+
+    monkeypatch.setattr(characteristics, "COMPILED", compiled)
+    comm = MPI.COMM_WORLD
+    scene = validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.01},
+                            "inflow": {"u_mean": 1.0}, "micropolar": {"mu_r": 0.1, "lambda1": 0.01},
+                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": "characteristics2"}})
+    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
+    state, h = sim.stepper.state, sim.stepper.histories
+    rate = 2.0  # Ω
+    for f in (state.velocity, state.velocity_prev):
+        f.interpolate(lambda X: np.vstack([-rate * (X[1] - 0.5), rate * (X[0] - 0.5)]))
+    x = h.chars.quadrature_nodes(h.degree)[0][:, :2]
+    inner = np.hypot(x[:, 0] - 0.5, x[:, 1] - 0.5) <= 0.3
+    qdofs = h._quadrature_dofs(h.micro_rotation)
+
+    def foot_errors(midpoint, dt):
+        h.midpoint, h.dt = midpoint, dt
+        feet = np.zeros((len(x), 2, 2))  # point, foot k = 1, 2, component
+        for comp in (0, 1):
+            for k, (now, before) in enumerate(((state.micro_rotation, state.micro_rotation_prev),
+                                               (state.micro_rotation_prev, state.micro_rotation))):
+                now.interpolate(lambda X, comp=comp: X[comp])
+                before.x.array[:] = 0.0
+                h.update(1.5, state)
+                feet[:, k, comp] = h.micro_rotation.x.array[qdofs] / (2.0 if k == 0 else -0.5)
+        errors = []
+        for k in (1, 2):
+            c, s = np.cos(-k * rate * dt), np.sin(-k * rate * dt)
+            r = x - 0.5
+            exact = 0.5 + np.column_stack([c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1]])
+            errors.append(np.abs(feet[inner, k - 1] - exact[inner]).max(initial=0.0))
+        return comm.allreduce(max(errors), op=MPI.MAX)
+
+    dts = (0.04, 0.02, 0.01)
+    for midpoint, order in ((False, 2.0), (True, 3.0)):
+        e = [foot_errors(midpoint, dt) for dt in dts]
+        rates = np.log2(np.array(e[:-1]) / np.array(e[1:]))
+        assert np.all(np.abs(rates - order) <= 0.1), (midpoint, e, rates)
+    assert foot_errors(True, 0.01) < 0.1 * foot_errors(False, 0.01)
 
 
 def test_values_at_quadrature_nodes_compiled_equals_numpy(tmp_path, monkeypatch):

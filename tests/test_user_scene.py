@@ -1,7 +1,8 @@
 """A user's own scene (issue 17): ``geometry: {name: file, path: ...}`` with physical names.
 
 The .geo is meshed through gmsh with its names (areas, lengths, the interface found from the cells); the
-built-in Turek–Hron FSI3 mesh given back as a user file gives the same time series as the preset to 1e-10;
+built-in Turek–Hron FSI3 mesh given back as a user file, and the same geometry written by hand as a .geo
+(the same mesh bit for bit), give the same time series as the preset to 1e-10;
 a file scene gives the same numbers on 1 and 2 ranks. Bad files: tests/faults/test_input.py (FILE_SCENES).
 """
 
@@ -122,18 +123,49 @@ INFLOW = "12*y*(0.41 - y)/0.41**2 * (1 - cos(pi*min(t, 0.1)/0.1))/2"
 """The preset's parabolic inflow of mean 2 with its cosine ramp over 0.1 s (the test's ramp_time)."""
 
 
+TUREK_HRON_GEO = DATA / "turek_hron.geo"
+"""The Turek–Hron geometry written by hand as a user's .geo (the generator's gmsh operations and options)."""
+
+
+def _nodes_and_triangles(path):
+    """Node coordinates (by node tag) and triangles (node tags) of a .msh, as gmsh reads them."""
+    import gmsh
+
+    gmsh.initialize(["gmsh"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        tags, x, _ = gmsh.model.mesh.getNodes()
+        _, triangles = gmsh.model.mesh.getElementsByType(2)
+    finally:
+        gmsh.finalize()
+    return x.reshape(-1, 3)[np.argsort(tags)], np.sort(tags), triangles.reshape(-1, 3)
+
+
+def test_hand_written_turek_hron_geo_gives_the_preset_mesh(tmp_path):
+    """tests/data/user_scene/turek_hron.geo, meshed as a user's file, is the built-in level-0 mesh bit for bit:
+    the same 784 nodes (coordinates equal, not close) and the same 1447 triangles, on either stack's gmsh."""
+    from cosserat_fsi.geometry import TurekHron
+
+    preset = _nodes_and_triangles(build_msh(TurekHron(level=0, flag="solid"), tmp_path))
+    user = _nodes_and_triangles(build_msh(validate_geometry({"name": "file", "path": str(TUREK_HRON_GEO)}), tmp_path))
+    assert len(preset[0]) == 784 and len(preset[2]) == 1447
+    for a, b in zip(preset, user):
+        assert a.shape == b.shape and np.array_equal(a, b)
+
+
 @pytest.mark.slow
 def test_turek_hron_fsi3_equals_its_user_file_twin_with_boundaries(repo_root, tmp_path):
-    """The same over 200 steps (issue 17, item 4), with the conditions written in a boundaries section (the
-    inflow, profile and ramp, as an expression of y and t; no-slip walls and cylinder; a do-nothing outlet)
-    and the observables named: the force on the cylinder and the wetted flag, the flag's tip A as a solid
-    point (the preset's ux_A, uy_A). The preset's own conditions are the same mechanism
-    (geometry/presets.py), so the two runs go through one boundary path."""
+    """The same over 200 steps (issue 17, item 4), the twin written by hand: the .geo above (the geometry,
+    not the preset's mesh file) and the conditions in a boundaries section (the inflow, profile and ramp, as an
+    expression of y and t; no-slip walls and cylinder; a do-nothing outlet) and the observables named: the
+    force on the cylinder and the wetted flag, the flag's tip A as a solid point (the preset's ux_A, uy_A).
+    The preset's own conditions are the same mechanism (geometry/presets.py), so the two runs go through one
+    boundary path."""
     preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
                         ["geometry.level=0", "time.dt=0.01", "time.t_end=2.0", "inflow.ramp_time=0.1"])
-    msh = MPI.COMM_WORLD.bcast(build_msh(preset.geometry) if MPI.COMM_WORLD.rank == 0 else None)
     data = preset.model_dump(mode="json")
-    data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(msh)}, boundaries={
+    data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(TUREK_HRON_GEO)}, boundaries={
         "inlet": {"type": "velocity", "value": [INFLOW, 0]}, "outlet": {"type": "do_nothing"},
         "walls": {"type": "no_slip"}, "cylinder": {"type": "no_slip"}},
         observables={"forces": ["cylinder"], "wetted_solid": True, "solid_points": {"A": [0.6, 0.2]},
@@ -190,10 +222,39 @@ def test_file_scene_serial_equals_two_ranks(run_cli, mpirun, tmp_path):
 
 
 def test_perpendicular_flap_example_runs(repo_root):
-    """examples/perpendicular_flap (a .geo + boundaries) for 3 steps: the inflow pushes the flap downstream."""
-    scene = load_scene(repo_root / "examples" / "perpendicular_flap" / "flap.yaml", ["time.t_end=0.03"])
+    """examples/perpendicular_flap (a .geo + boundaries) for 3 steps on level 0 (the file ships level 1): the
+    inflow pushes the flap downstream."""
+    scene = load_scene(repo_root / "examples" / "perpendicular_flap" / "flap.yaml",
+                       ["time.t_end=0.03", "geometry.level=0"])
     series = _series(scene, 3)
     assert np.all(np.isfinite(series["drag"])) and series["drag"][-1] > 0
     assert series["energy_kinetic"][-1] > 0 and series["ux_tip"][-1] > 0
     # mass conservation: the flow rate is the inflow's 10 m/s × 4 m at every step (an incompressible fluid)
     assert np.allclose(series["flow_rate"], 40.0, rtol=1e-4), series["flow_rate"]
+
+
+@pytest.mark.parametrize("walls", ["zero", "half_curl"])
+def test_sudden_expansion_example_develops_into_exact_poiseuille(repo_root, walls):
+    """examples/sudden_expansion (a micropolar fluid through a backward-facing step, steady Newton on level 0):
+    far behind the step the flow is developed again. ω = 0 on the walls: micropolar Poiseuille flow
+    (shared/reference/micropolar_exact.md §1) with the inlet's flow rate 1 in the channel of half-height 1;
+    ω = ½ curl u on the walls: Newtonian Poiseuille with viscosity μ (u = 0.75 on the axis, ω = 0.375 at
+    y = 1.5). The probes at x = 13 within 1e-3 (measured: 1e-5 .. 1e-4)."""
+    from cosserat_fsi.exact import MicropolarPoiseuille
+
+    scene = load_scene(repo_root / "examples" / "sudden_expansion" / "expansion.yaml",
+                       [f"boundaries.walls.micro_rotation={walls}", f"boundaries.step.micro_rotation={walls}"])
+    series = _series(scene, 1)
+    assert series["flow_rate"][-1] == pytest.approx(1.0, rel=1e-5)  # the inlet profile's flow rate
+    m = scene.micropolar
+    if walls == "zero":
+        unit = MicropolarPoiseuille(1.0, 1.0, scene.fluid.mu, m.mu_r, m.lambda1, 0.0)
+        exact = MicropolarPoiseuille(1.0 / unit.flow_rate(), 1.0, scene.fluid.mu, m.mu_r, m.lambda1, 0.0)
+        (u_axis, _), (_, w_upper) = (exact.profiles(np.array([[0.0], [y]])) for y in (1.0, 1.5))
+        u_axis, w_upper = float(u_axis[0]), float(w_upper[0])
+        assert u_axis == pytest.approx(0.7872523, abs=1e-7)  # 5 % above the Newtonian 0.75
+    else:
+        u_axis, w_upper = 0.75, 0.375
+    assert series["u_centre"][-1] == pytest.approx(u_axis, rel=1e-3)
+    assert series["omega_upper"][-1] == pytest.approx(w_upper, rel=1e-3)
+    assert abs(series["v_centre"][-1]) < 1e-3 and abs(series["omega_centre"][-1]) < 1e-3  # developed, symmetric

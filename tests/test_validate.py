@@ -30,3 +30,29 @@ def test_a_failed_carried_over_row_is_not_the_cheapest(tmp_path):
     previous = previous_rows(_report(tmp_path, ok="no"))
     cases = [Case("cfd3-L1-c2-dt0.001", "c.yaml", {}, CFD3)]
     assert cheapest(cases, tmp_path / "runs", previous) == ["- cfd3: no case meets every tolerance yet"]
+
+
+def test_an_example_case_is_measured_from_its_run_folder(tmp_path):
+    """An example's rows come from its ``measure`` of the run folder: checked keys against their tolerance,
+    reported keys (tolerance None) without a verdict; a folder with only summary.json keeps the earlier rows."""
+    import json
+
+    def measure(run):
+        (run / "timeseries.csv").read_text()  # what a fresh checkout lacks
+        return {"u": {"value": 1.0005, "reference": 1.0, "error": 5e-4},
+                "x_r": {"value": 2.2, "reference": None, "error": None}}
+
+    run = tmp_path / "runs" / "ex-L0"
+    run.mkdir(parents=True)
+    (run / "summary.json").write_text(json.dumps({
+        "status": "completed", "mesh": {"level": 0, "vertices": 10}, "time": {"scheme": "steady", "dt": 1.0},
+        "wall_time": {"total": 4.0, "per_step": 4.0}}))
+    case = Case("ex-L0", "c.yaml", {}, {"u": 1e-3, "x_r": None}, measure=measure)
+    assert "not measured" in table([case], tmp_path / "runs")[2]  # no timeseries.csv, no earlier rows
+    (run / "timeseries.csv").write_text("t\n1\n")
+    rows = table([case], tmp_path / "runs")
+    assert rows[2] == "| ex-L0 | L0 (10) | steady | – | u | 1.0005 | 1 | +0.05% | 0.1% | yes | 4 | 4.000 |"
+    assert rows[3] == "| ex-L0 | L0 (10) | steady | – | x_r | 2.2 | – | – | – | – | 4 | 4.000 |"
+    assert cheapest([case], tmp_path / "runs") == ["- ex: `ex-L0` (4 s)"]
+    case.tolerances["u"] = 1e-4
+    assert "| no |" in table([case], tmp_path / "runs")[2]

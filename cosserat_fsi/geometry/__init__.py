@@ -12,12 +12,12 @@ Importing this package imports neither gmsh nor dolfinx.
 
 Tags (cosserat_fsi/tags.py: ``CELL_TAGS`` / ``FACET_TAGS``; each geometry's ``describe`` lists the ones it uses):
 
-cells: fluid 1, solid 2 (turek_hron with flag: solid, flag (all cells), box (the disk)).
-facets: inlet 1 (x = 0), outlet 2 (x = L), walls 3 (y = 0 and y = H; square: left, right, bottom; box: all four
-sides; cube: five sides; duct, schaefer_turek_3d: four sides), cylinder 4 (circle; schaefer_turek_3d: the
-cylinder's surface), interface 5 (turek_hron flag boundary off the cylinder; flag:
-bottom, right, top edges, exterior; box: the circle, interior), lid 6 (square and cube top, y = length), clamp 7
-(flag: left edge x = 0).
+cells: fluid 1, solid 2 (turek_hron with flag: solid, turek_hron_3d, flag (all cells), box (the disk)).
+facets: inlet 1 (x = 0), outlet 2 (x = L), walls 3 (y = 0 and y = H; square: left, right, bottom; box: all
+four sides; cube: five sides; duct, schaefer_turek_3d: four sides), cylinder 4 (circle; schaefer_turek_3d: the
+cylinder's surface; turek_hron_3d: also the face where the flag is clamped), interface 5 (turek_hron(_3d) flag
+boundary off the cylinder; flag: bottom, right, top edges, exterior; box: the circle, interior), lid 6 (square
+and cube top, y = length), clamp 7 (flag: left edge x = 0).
 """
 
 from __future__ import annotations
@@ -45,10 +45,11 @@ from .schaefer_turek import SchaeferTurek
 from .schaefer_turek_3d import SchaeferTurek3D
 from .square import Square
 from .turek_hron import TurekHron
+from .turek_hron_3d import TurekHron3D
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
 Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube | Duct
-                     | SchaeferTurek3D,
+                     | SchaeferTurek3D | TurekHron3D,
                      Field(discriminator="name")]
 """The ``geometry`` section of a scene: one model per geometry, chosen by ``name``."""
 MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m in get_args(get_args(Geometry)[0])}
@@ -56,7 +57,8 @@ MODELS: dict[str, type[GeometryBase]] = {m.model_fields["name"].default: m for m
 _MODULES = {name: sys.modules[model.__module__] for name, model in MODELS.items()}  # name -> builder module
 GEOMETRIES = tuple(MODELS)
 __all__ = ["BUILDER_VERSION", "GEOMETRIES", "MAX_LEVEL", "Box", "Channel", "Cube", "Duct", "FileGeometry", "Flag",
-           "Geometry", "GeometryBase", "MODELS", "SchaeferTurek", "SchaeferTurek3D", "Square", "TurekHron", "build_msh",
+           "Geometry", "GeometryBase", "MODELS", "SchaeferTurek", "SchaeferTurek3D", "Square", "TurekHron",
+           "TurekHron3D", "build_msh",
            "default_cache_dir", "facet_ids"]
 
 log = logging.getLogger("cosserat_fsi")

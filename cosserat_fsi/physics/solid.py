@@ -76,11 +76,18 @@ def consistent_stress_residual(u, v, d_star, *, mu_s, dt, dx_solid) -> ufl.Form:
 
 
 def elastic_energy_density(d, mu_s):
-    """Neo-Hookean stored energy per unit volume, μ_s/2 (tr B − 2 − 2 ln J), F = (I − grad d)⁻¹ (2D).
+    """Stored energy per unit volume of the solid stress −pI + μ_s (Dd − GᵀG), F = (I − grad d)⁻¹.
 
-    It equals the incompressible μ_s/2 (tr B − 2) when J = det F = 1, and stays ≥ 0 when the discrete
-    J is not exactly 1 (tr B ≥ 2J ≥ 2 + 2 ln J).
+    2D: neo-Hookean μ_s/2 (tr B − 2 − 2 ln J); it equals the incompressible μ_s/2 (tr B − 2) when J = det F
+    = 1, and stays ≥ 0 when the discrete J is not exactly 1 (tr B ≥ 2J ≥ 2 + 2 ln J).
+    3D: Dd − GᵀG = I − B⁻¹ is not B − I there (Cayley–Hamilton gives B = (tr B) I − B⁻¹ in 2D only): the
+    stress −p'I − μ_s B⁻¹ is the incompressible Mooney–Rivlin material with c₁ = 0, 2c₂ = μ_s (the same
+    linear elasticity, shear modulus μ_s, at small strain), energy μ_s/2 (tr B⁻¹ − 3) at J = 1;
+    μ_s/2 (tr B⁻¹ − 3 + 2 ln J) ≥ 0 for any J (tr B⁻¹ ≥ 3 J^(−2/3) ≥ 3 − 2 ln J).
     """
+    if len(d) == 3:
+        F_inv = ufl.Identity(3) - ufl.grad(d)
+        return 0.5 * mu_s * (ufl.tr(F_inv.T * F_inv) - 3 - 2 * ufl.ln(ufl.det(F_inv)))
     F = ufl.inv(ufl.Identity(len(d)) - ufl.grad(d))
     return 0.5 * mu_s * (ufl.tr(F * F.T) - 2 - 2 * ufl.ln(ufl.det(F)))
 

@@ -12,6 +12,9 @@ fields are evaluated there with a parallel point location:
 
 w is the mesh velocity (ALE): with w = 0 this is the fixed-mesh scheme.
 
+On tetrahedra (3D) the same steps run in numpy (barycentric tests) and dolfinx's ``Function.eval`` in the
+located cells (the P2 evaluation); the compiled kernels below are for triangles.
+
 The barycentric tests and the P2 evaluation run in compiled kernels (``_kernels``, numba) when numba is
 available (``COMPILED``; ``COSSERAT_FSI_NO_NUMBA=1`` turns them off); the numpy functions here are the
 reference they reproduce operation by operation, and the fallback.
@@ -38,7 +41,7 @@ _NEIGHBOURS = weakref.WeakKeyDictionary()  # mesh -> cell neighbour table (the t
 
 
 class PointLocator:
-    """Finds, for points in physical space, a local cell containing each (affine triangles)."""
+    """Finds, for points in physical space, a local cell containing each (affine triangles or tetrahedra)."""
 
     def __init__(self, mesh, coordinates: np.ndarray | None = None):
         self.mesh = mesh
@@ -46,35 +49,32 @@ class PointLocator:
         self.update(coordinates)
 
     def update(self, coordinates: np.ndarray | None = None):
-        """Rebuild the search structures (call after the mesh moved). ``coordinates``: the (n, 2) node
+        """Rebuild the search structures (call after the mesh moved). ``coordinates``: the (n, d) node
         coordinates of another configuration of the same mesh (an earlier time level) to locate in."""
         mesh = self.mesh
         tdim = mesh.topology.dim
         imap = mesh.topology.index_map(tdim)
         self.num_owned = imap.size_local
         n_cells = imap.size_local + imap.num_ghosts
-        if tdim != 2:  # 3D (steady solver only): no back-tracking, no affine-triangle location yet
-            self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
-            self.nodes = self.x0 = self.J = self.Jinv = self.Jinv_flat = None
-            self.quadrature_cache = {}
-            return
+        self.tdim = tdim
+        gdim = tdim  # 2D meshes keep only (x, y): dolfinx stores z = 0
         if coordinates is None:
             self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
         else:  # the tree is built from the geometry: lend it the other coordinates meanwhile
-            current = mesh.geometry.x[:, :2].copy()
-            mesh.geometry.x[:, :2] = coordinates
+            current = mesh.geometry.x[:, :gdim].copy()
+            mesh.geometry.x[:, :gdim] = coordinates
             try:
                 self.tree = compat.bb_tree(mesh, tdim, padding=1e-10)
             finally:
-                mesh.geometry.x[:, :2] = current
-        x = mesh.geometry.x[:, :2] if coordinates is None else np.asarray(coordinates)
-        nodes = compat.geometry_dofmap(mesh)[:n_cells, :3]
+                mesh.geometry.x[:, :gdim] = current
+        x = mesh.geometry.x[:, :gdim] if coordinates is None else np.asarray(coordinates)
+        nodes = compat.geometry_dofmap(mesh)[:n_cells, :tdim + 1]
         self.nodes = nodes
         x0 = x[nodes[:, 0]]
-        J = np.stack([x[nodes[:, 1]] - x0, x[nodes[:, 2]] - x0], axis=2)  # (n, 2, 2): columns edges
+        J = np.stack([x[nodes[:, k]] - x0 for k in range(1, tdim + 1)], axis=2)  # (n, d, d): columns edges
         self.x0, self.J = x0, J
         self.Jinv = np.linalg.inv(J)
-        self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, 4))
+        self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, tdim * tdim))
         self.x0 = np.ascontiguousarray(self.x0)
         self.quadrature_cache = {}  # degree -> Characteristics.quadrature_nodes in this geometry
 
@@ -95,8 +95,12 @@ class PointLocator:
 
     def _inside(self, points: np.ndarray, cells: np.ndarray, owned_only: bool = False) -> np.ndarray:
         """Barycentric test: is each point in the given local cell (and is the cell owned)?"""
-        l1, l2 = barycentric(self, points, cells)
-        hit = np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
+        if self.tdim == 3:
+            lam = barycentric_3d(self, points, cells)
+            hit = np.minimum(lam.min(axis=1), 1.0 - lam.sum(axis=1)) >= -_TOL
+        else:
+            l1, l2 = barycentric(self, points, cells)
+            hit = np.minimum(np.minimum(l1, l2), 1.0 - l1 - l2) >= -_TOL
         if owned_only:
             hit &= cells < self.num_owned
         return hit
@@ -116,7 +120,8 @@ class PointLocator:
         cells = np.full(len(points), -1, dtype=np.int32)
         if len(points) == 0:
             return cells
-        if hint is not None and COMPILED:  # walk from the hint cell; the tree only where the walk fails
+        compiled = COMPILED and self.tdim == 2  # the kernels are for triangles
+        if hint is not None and compiled:  # walk from the hint cell; the tree only where the walk fails
             cells = _kernels.walk(np.ascontiguousarray(points), np.ascontiguousarray(hint, dtype=np.int32),
                                   self.x0, self.Jinv_flat, self.neighbours, _TOL, self._limit(owned_only),
                                   _WALK_STEPS)
@@ -131,9 +136,7 @@ class PointLocator:
             cells[rest] = self.locate(points[rest], owned_only)
             return cells
         offsets, candidates = compat.collision_candidates(self.tree, points)
-        if self.x0 is None:  # 3D: tetrahedra (probes only)
-            return _first_tetrahedron(self.mesh, points, offsets, candidates, self._limit(owned_only))
-        if COMPILED:
+        if compiled:
             return _kernels.first_inside(np.ascontiguousarray(points), offsets, candidates, self.x0,
                                          self.Jinv_flat, _TOL, self._limit(owned_only))
         counts = np.diff(offsets)
@@ -148,27 +151,6 @@ class PointLocator:
         pts_in, first = np.unique(point_of[inside], return_index=True)
         cells[pts_in] = candidates[inside][first]
         return cells
-
-
-def _first_tetrahedron(mesh, points: np.ndarray, offsets: np.ndarray, candidates: np.ndarray,
-                       limit: int) -> np.ndarray:
-    """Local cell per point: the first candidate (bounding-box hit below ``limit``) of affine tetrahedra
-    whose barycentric coordinates are all ≥ −tolerance; −1 if none."""
-    cells = np.full(len(points), -1, dtype=np.int32)
-    point_of = np.repeat(np.arange(len(points)), np.diff(offsets))
-    keep = candidates < limit
-    point_of, candidates = point_of[keep], candidates[keep]
-    if len(candidates) == 0:
-        return cells
-    x = mesh.geometry.x
-    nodes = compat.geometry_dofmap(mesh)[candidates, :4]
-    x0 = x[nodes[:, 0]]
-    J = np.stack([x[nodes[:, k]] - x0 for k in (1, 2, 3)], axis=2)  # (n, 3, 3): columns edges
-    lam = np.linalg.solve(J, (points[point_of] - x0)[:, :, None])[:, :, 0]
-    inside = np.minimum(lam.min(axis=1), 1.0 - lam.sum(axis=1)) >= -_TOL
-    pts_in, first = np.unique(point_of[inside], return_index=True)
-    cells[pts_in] = candidates[inside][first]
-    return cells
 
 
 def neighbour_table(triangles: np.ndarray) -> np.ndarray:
@@ -192,6 +174,12 @@ def barycentric(locator: PointLocator, points: np.ndarray, cells: np.ndarray) ->
     x0 = locator.x0[cells]
     dx, dy = points[:, 0] - x0[:, 0], points[:, 1] - x0[:, 1]
     return Jinv[:, 0] * dx + Jinv[:, 1] * dy, Jinv[:, 2] * dx + Jinv[:, 3] * dy
+
+
+def barycentric_3d(locator: PointLocator, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (λ1, λ2, λ3) of points in given local tetrahedra, shape (n, 3)
+    (λ0 = 1 − λ1 − λ2 − λ3)."""
+    return np.einsum("nij,nj->ni", locator.Jinv[cells], points[:, :3] - locator.x0[cells])
 
 
 def p2_basis(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
@@ -230,7 +218,9 @@ def combine(locator: PointLocator, f, phi: np.ndarray, cells: np.ndarray) -> np.
 
 
 def is_p2(locator: PointLocator, f) -> bool:
-    return locator.dofs(f.function_space).shape[1] == 6
+    """A P2 field on triangles (what the vectorised and compiled evaluations do; tetrahedra go to
+    dolfinx's Function.eval)."""
+    return locator.tdim == 2 and locator.dofs(f.function_space).shape[1] == 6
 
 
 def _compiled_p2(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -255,7 +245,7 @@ def eval_at(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> 
 
 def eval_many(locator: PointLocator, functions, points: np.ndarray, cells: np.ndarray) -> list[np.ndarray]:
     """``eval_at`` for several fields at the same points: the basis is computed once."""
-    if COMPILED:
+    if COMPILED or locator.tdim != 2:
         return [eval_at(locator, f, points, cells) for f in functions]
     phi = p2_basis(*barycentric(locator, points, cells)) if len(points) else None
     return [combine(locator, f, phi, cells) if phi is not None and is_p2(locator, f)
@@ -387,12 +377,15 @@ class Characteristics:
 
     @staticmethod
     def _quadrature_nodes(degree: int, locator: PointLocator):
-        ref = compat.quadrature_points(degree)
+        ref = compat.quadrature_points(degree, locator.tdim)
         x0, J = locator.x0, locator.J
         n_cells, nq = len(x0), len(ref)
         out = np.zeros((n_cells, nq, 3))
-        for i in (0, 1):  # x_i = x0_i + J_i0 ξ + J_i1 η, written out (≈ 5× faster than an einsum)
-            out[:, :, i] = x0[:, i, None] + J[:, i, 0, None] * ref[:, 0] + J[:, i, 1, None] * ref[:, 1]
+        if locator.tdim == 3:  # x = x0 + J ξ
+            out[:] = x0[:, None, :] + np.einsum("nij,qj->nqi", J, ref)
+        else:
+            for i in (0, 1):  # x_i = x0_i + J_i0 ξ + J_i1 η, written out (≈ 5× faster than an einsum)
+                out[:, :, i] = x0[:, i, None] + J[:, i, 0, None] * ref[:, 0] + J[:, i, 1, None] * ref[:, 1]
         points, cells = out.reshape(-1, 3), np.repeat(np.arange(n_cells, dtype=np.int32), nq)
         points.flags.writeable = cells.flags.writeable = False
         return points, cells
@@ -401,6 +394,9 @@ class Characteristics:
         """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference
         points is the same in every cell, so this is Σ_k φ_k(ξ_q) c_k per cell, summed in k order from 0
         as ``combine`` (and the compiled kernels) do; a matrix product would sum in BLAS's order."""
+        if self.locator.tdim != 2:  # tetrahedra: dolfinx's evaluation in the known cells
+            points, cells = self.quadrature_nodes(degree)
+            return f.eval(points, cells).reshape(len(points), -1)
         phi = reference_basis(degree)  # (nq, 6)
         if COMPILED and is_p2(self.locator, f):
             return _kernels.at_reference_points(phi, self.locator.dofs(f.function_space), f.x.array,

@@ -33,8 +33,9 @@ class Histories:
         V = sp.space("velocity")
         t = scene.time
         self.degree = t.quadrature_degree if t.characteristics == "quadrature" else None
+        self.midpoint = t.foot == "midpoint"
         if self.degree:
-            self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (2,)))
+            self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (mesh.geometry.dim,)))
             self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.degree})
         else:
             self.velocity = dolfinx.fem.Function(V)
@@ -45,7 +46,8 @@ class Histories:
             S = sp.space("micro_rotation")
             at_quadrature = self.degree and not scene.micropolar.nodal_characteristics
             self.micro_rotation = dolfinx.fem.Function(
-                compat.quadrature_space(mesh, self.degree) if at_quadrature else S)
+                compat.quadrature_space(mesh, self.degree, (3,) if mesh.geometry.dim == 3 else ())
+                if at_quadrature else S)
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.micro else None, comm)
         self.earlier_locators = (self.chars.locator, self.chars.locator)
         self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
@@ -73,14 +75,14 @@ class Histories:
                 _set_quadrature(self.micro_rotation, hist[1])
         else:
             hist = self._values(alpha, degree, state, current, previous, solve_displacement)
-            n = chars.n_nodes
-            self.velocity.x.array[: n * 2] = hist[0].ravel()
+            n, bs = chars.n_nodes, self.velocity.function_space.dofmap.index_map_bs
+            self.velocity.x.array[: n * bs] = hist[0].ravel()
             self.velocity.x.scatter_forward()
         if self.omega_apart or (micro and not degree):
             values = (self._values(alpha, None, state, [state.micro_rotation], [state.micro_rotation_prev],
                                    solve_displacement)[0]
                       if self.omega_apart else hist[1])
-            self.micro_rotation.x.array[:] = chars.to_S(values[:, 0])
+            self.micro_rotation.x.array[:] = chars.to_S(values).ravel()
             self.micro_rotation.x.scatter_forward()
 
     def _values(self, alpha, degree, state, fns_n, fns_nm1, solve_displacement) -> list:
@@ -103,8 +105,10 @@ class Histories:
             return self._at_feet(x, x - dt * _pad(u_x - w_x), fns_n, cells)
         if not self.moving:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
             u_star = _pad(2.0 * u_x - at_x(state.velocity_prev))
-            vals1 = self._at_feet(x, x - dt * u_star, fns_n, cells)
-            vals2 = self._at_feet(x, x - 2.0 * dt * u_star, fns_nm1, cells)
+            loc = self.chars.locator
+            feet1, feet2 = self.bdf2_feet(state, x, u_star, (loc, x), (loc, x), cells)
+            vals1 = self._at_feet(x, feet1, fns_n, cells)
+            vals2 = self._at_feet(x, feet2, fns_nm1, cells)
         else:
             # moving mesh: u^n (and ω^n) live on Ω^{n−1}, u^{n−1} on Ω^{n−2}, where they were computed;
             # the feet (physical points) are located in those configurations of the mesh. A mesh-
@@ -118,18 +122,39 @@ class Histories:
             (un_x,) = evaluate(loc_n, [state.velocity], x, x_n, comm, hint=cells)
             (unm1_x,) = evaluate(loc_nm1, [state.velocity_prev], x, x_nm1, comm, hint=cells)
             u_star = _pad(2.0 * un_x - unm1_x)
-            vals1 = evaluate(loc_n, fns_n, x - dt * u_star, x_n, comm, hint=cells)
-            vals2 = evaluate(loc_nm1, fns_nm1, x - 2.0 * dt * u_star, x_nm1, comm, hint=cells)
+            feet1, feet2 = self.bdf2_feet(state, x, u_star, (loc_n, x_n), (loc_nm1, x_nm1), cells)
+            vals1 = evaluate(loc_n, fns_n, feet1, x_n, comm, hint=cells)
+            vals2 = evaluate(loc_nm1, fns_nm1, feet2, x_nm1, comm, hint=cells)
         return [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
+
+    def bdf2_feet(self, state: State, x: np.ndarray, u_star: np.ndarray, at_n, at_nm1, cells=None):
+        """The BDF2 feet (X¹ of t^n, X² of t^{n−1}) of the points x (n, 3) with u* = 2u^n − u^{n−1} at x
+        (n, 3); ``at_n``, ``at_nm1``: (locator, anchors) of the configurations u^n and u^{n−1} live on.
+
+        ``time.foot: euler``: straight lines x − δt u*, x − 2δt u*. ``midpoint``: one midpoint (RK2) step
+        of dX/dt = u(X, t) back from (x, t^{n+1}) with the velocity at the middle of each interval,
+        X¹ = x − δt u^{n+½}(x − ½δt u*), u^{n+½} = 3/2 u^n − ½ u^{n−1}, and X² = x − 2δt u^n(x − δt u*):
+        each foot exact to O(δt³) instead of O(δt²) (the straight lines' O(δt²) errors cancel in
+        2u^n∘X¹ − ½u^{n−1}∘X² only while δt|u| is small against the flow's length scale)."""
+        dt = self.dt
+        if not self.midpoint:
+            return x - dt * u_star, x - 2.0 * dt * u_star
+        (loc_n, x_n), (loc_nm1, x_nm1) = at_n, at_nm1
+        half_way = x - (0.5 * dt) * u_star
+        (ua,) = evaluate(loc_n, [state.velocity], half_way, x_n, self.comm, hint=cells)
+        (ub,) = evaluate(loc_nm1, [state.velocity_prev], half_way, x_nm1, self.comm, hint=cells)
+        (uc,) = evaluate(loc_n, [state.velocity], x - dt * u_star, x_n, self.comm, hint=cells)
+        return x - dt * _pad(1.5 * ua - 0.5 * ub), x - 2.0 * dt * _pad(uc)
 
     # ------------------------------------------------------------- BDF2 at the quadrature points, compiled
     def _compiled_bdf2(self, current, previous) -> bool:
-        """Can the fused kernel do this step: numba on, 2D, P2 fields (u a 2-vector, ω a scalar)?"""
+        """Can the fused kernel do this step: numba on, 2D (``is_p2``: triangles), P2 fields (u a 2-vector,
+        ω a scalar)?"""
         loc = self.chars.locator
 
         def sizes(fns):
             return [f.function_space.dofmap.index_map_bs for f in fns]
-        return (characteristics.COMPILED and loc.x0 is not None and all(is_p2(loc, f) for f in current + previous)
+        return (characteristics.COMPILED and all(is_p2(loc, f) for f in current + previous)
                 and sizes(current) == sizes(previous) and sizes(current) in ([2], [2, 1]))
 
     def _bdf2_quadrature(self, state: State, fns_n, fns_nm1) -> None:
@@ -149,7 +174,7 @@ class Histories:
         w_n, w_nm1 = (fns_n[1].x.array, fns_nm1[1].x.array) if with_w else (fns_n[0].x.array,) * 2
         phi = reference_basis(degree)
         status, u_star = _kernels.bdf2_quadrature(
-            x, len(phi), phi, self.moving, dt,
+            x, len(phi), phi, self.moving, dt, self.midpoint,
             characteristics._TOL, characteristics._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
             (loc_nm1.x0, loc_nm1.Jinv_flat), loc.neighbours, dofs_u, fns_n[0].x.array, fns_nm1[0].x.array,
             dofs_w, w_n, w_nm1, with_w, qdofs[0], targets[0].x.array, qdofs[-1], targets[-1].x.array)
@@ -164,9 +189,10 @@ class Histories:
         else:
             x_n = x_nm1 = x
         rest = np.flatnonzero(status)
-        star = _pad(u_star[rest])
-        vals1 = evaluate(loc_n, fns_n, x[rest] - dt * star, x_n[rest], comm, hint=cells[rest])
-        vals2 = evaluate(loc_nm1, fns_nm1, x[rest] - 2.0 * dt * star, x_nm1[rest], comm, hint=cells[rest])
+        feet1, feet2 = self.bdf2_feet(state, x[rest], _pad(u_star[rest]), (loc_n, x_n[rest]),
+                                      (loc_nm1, x_nm1[rest]), cells[rest])
+        vals1 = evaluate(loc_n, fns_n, feet1, x_n[rest], comm, hint=cells[rest])
+        vals2 = evaluate(loc_nm1, fns_nm1, feet2, x_nm1[rest], comm, hint=cells[rest])
         for f, dofs, v1, v2 in zip(targets, qdofs, vals1, vals2):
             bs = f.function_space.dofmap.index_map_bs
             f.x.array.reshape(-1, bs)[dofs[rest]] = 2.0 * v1 - 0.5 * v2
@@ -213,7 +239,7 @@ class Histories:
         self.chars.locator.update()
         if state.configuration_n is not None:
             self.earlier_locators = tuple(
-                PointLocator(self.chars.locator.mesh, motion.X0 + f.x.array.reshape(-1, 2)[motion.node_dof])
+                PointLocator(self.chars.locator.mesh, motion.X0 + f.x.array.reshape(-1, motion.dim)[motion.node_dof])
                 for f in (state.configuration_n, state.configuration_nm1))
 
 

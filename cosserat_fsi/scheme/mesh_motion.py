@@ -40,8 +40,9 @@ class _MovingMesh:
 
     def __init__(self, mesh, comm):
         self.mesh, self.comm = mesh, comm
-        self.M = M = compat.function_space(mesh, "Lagrange", 1, shape=(2,))
-        self.X0 = mesh.geometry.x[:, :2].copy()
+        self.dim = d = mesh.topology.dim  # 2: triangles in the plane, 3: tetrahedra
+        self.M = M = compat.function_space(mesh, "Lagrange", 1, shape=(d,))
+        self.X0 = mesh.geometry.x[:, :d].copy()
         self.displacement = dolfinx.fem.Function(M)  # total vertex displacement from the reference
         self.velocity = dolfinx.fem.Function(M)  # (x^{n+1} − x^n)/δt
         # geometry node <-> P1 dof (same local vertex order per cell)
@@ -58,11 +59,8 @@ class _MovingMesh:
         return {"mesh_displacement": self.displacement, "mesh_velocity_P1": self.velocity}
 
     def _areas(self) -> np.ndarray:
-        """Signed areas of the local cells (positive for the reference orientation)."""
-        x = self.mesh.geometry.x[:, :2]
-        n = compat.geometry_dofmap(self.mesh)[:, :3]
-        e1, e2 = x[n[:, 1]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 0]]
-        return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        """Signed areas (volumes in 3D) of the local cells (positive for the reference orientation)."""
+        return _signed_measures(self.mesh)
 
     def quality(self) -> np.ndarray:
         """``cell_quality`` of the local cells, negative where a cell is inverted."""
@@ -79,21 +77,21 @@ class _MovingMesh:
     def place(self, displacement: np.ndarray, t: float):
         """Put the mesh at X0 + displacement (P1 dof array) after checking its cells (DivergenceError and
         the mesh untouched if one would invert or degenerate). ``self.displacement`` is not changed."""
-        x = self.mesh.geometry.x
-        old = x[:, :2].copy()
-        x[:, :2] = self.X0 + displacement.reshape(-1, 2)[self.node_dof]
+        x, d = self.mesh.geometry.x, self.dim
+        old = x[:, :d].copy()
+        x[:, :d] = self.X0 + displacement.reshape(-1, d)[self.node_dof]
         ratio = self._areas() / self.ref_area
         worst = int(np.argmin(ratio)) if len(ratio) else -1
         bad = len(ratio) > 0 and ratio[worst] < 1e-3
         if self.comm.allreduce(bad, op=MPI.LOR):
-            where = x[compat.geometry_dofmap(self.mesh)[worst, :3], :2].mean(axis=0) if bad else None
+            where = x[compat.geometry_dofmap(self.mesh)[worst, :d + 1], :d].mean(axis=0) if bad else None
             kind = "inverted" if bad and ratio[worst] <= 0 else "degenerate"
-            x[:, :2] = old
+            x[:, :d] = old
             where = next(w for w in self.comm.allgather(where) if w is not None)
             kinds = self.comm.allgather(kind if bad else None)
             kind = next(k for k in kinds if k is not None)
             raise DivergenceError(f"t = {t:.6g}: the mesh motion would make a cell {kind} near "
-                                  f"({where[0]:.4g}, {where[1]:.4g}); try a smaller time.dt, "
+                                  f"({', '.join(f'{c:.4g}' for c in where)}); try a smaller time.dt, "
                                   f"or the deformation is too large for a moving mesh")
         self.measure_quality()
         self.lowest_quality = min(self.min_quality, np.inf if self.lowest_quality is None else self.lowest_quality)
@@ -123,7 +121,7 @@ class MeshMotion(_MovingMesh):
         self._u_P1 = dolfinx.fem.Function(M)
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
-        self._solid_entries = (self.solid_dofs[:, None] * 2 + np.arange(2)).ravel()
+        self._solid_entries = (self.solid_dofs[:, None] * self.dim + np.arange(self.dim)).ravel()
         self.mesh_size = _vertex_sizes(mesh) if mesh_sizes else None
         self.fluid_cells = np.ones(len(self.ref_area), dtype=bool)
         self.fluid_cells[solid_cells[solid_cells < len(self.ref_area)]] = False
@@ -140,7 +138,7 @@ class MeshMotion(_MovingMesh):
             k = 1.0 / _cell_area(mesh) if stiffening else one  # the seed's, as it always was
         else:
             k = _cell_area(mesh) ** (-stiffness_exponent) if stiffening else one
-        zero = dolfinx.fem.Constant(mesh, np.zeros(2, dtype=PETSc.ScalarType))
+        zero = dolfinx.fem.Constant(mesh, np.zeros(self.dim, dtype=PETSc.ScalarType))
         self.L = compat.form(ufl.inner(zero, v) * ufl.dx)
         if method == "elastic":
             lam = 2.0 * poisson_ratio / (1.0 - 2.0 * poisson_ratio)
@@ -182,7 +180,7 @@ class MeshMotion(_MovingMesh):
     def _biharmonic(self, K, v):
         """K M_L⁻¹ K: the mixed biharmonic operator with the auxiliary field eliminated by the lumped mass."""
         lumped = fem_petsc.assemble_vector(compat.form(
-            ufl.inner(dolfinx.fem.Constant(self.mesh, np.ones(2, dtype=PETSc.ScalarType)), v) * ufl.dx))
+            ufl.inner(dolfinx.fem.Constant(self.mesh, np.ones(self.dim, dtype=PETSc.ScalarType)), v) * ufl.dx))
         lumped.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         lumped.reciprocal()
         scaled = K.duplicate(copy=True)
@@ -195,7 +193,7 @@ class MeshMotion(_MovingMesh):
         dofs = np.unique(np.concatenate(dof_sets))
         dofs = dofs[dofs < index_map.size_local]
         blocks = index_map.local_range[0] + dofs
-        return (blocks[:, None] * 2 + np.arange(2)).ravel().astype(PETSc.IntType)
+        return (blocks[:, None] * self.dim + np.arange(self.dim)).ravel().astype(PETSc.IntType)
 
     def extend(self, solid_displacement: np.ndarray) -> np.ndarray:
         """The extension of a total solid displacement (P1 dof array, only the solid entries are read)
@@ -228,14 +226,14 @@ class WallGap:
     carry the flow (a contact problem this scheme does not model), so the run stops (exit 3) naming where."""
 
     def __init__(self, motion: MeshMotion, facets: np.ndarray | None, gap: float | None):
-        comm, mesh = motion.comm, motion.mesh
-        local = _facet_segments(mesh, facets) if facets is not None else np.zeros((0, 2, 2))
+        comm, mesh, d = motion.comm, motion.mesh, motion.dim
+        local = _facet_segments(mesh, facets) if facets is not None else np.zeros((0, d, d))
         self.segments = np.concatenate(comm.allgather(local))  # the walls do not move: all ranks keep them
-        lengths = np.linalg.norm(self.segments[:, 1] - self.segments[:, 0], axis=1)
+        lengths = np.linalg.norm(self.segments[:, 1] - self.segments[:, 0], axis=1)  # (3D: an edge of the facet)
         self.gap = gap if gap is not None else 0.25 * float(lengths.min()) if len(lengths) else 0.0
         self.comm, self.motion = comm, motion
-        n = len(motion.displacement.x.array) // 2
-        X = np.zeros((n, 2))
+        n = len(motion.displacement.x.array) // d
+        X = np.zeros((n, d))
         X[motion.node_dof[: len(motion.X0)]] = motion.X0
         dofs = motion.solid_dofs[motion.solid_dofs < motion.M.dofmap.index_map.size_local]
         if len(self.segments):  # solid vertices on a wall from the start (attached) are not checked
@@ -243,7 +241,9 @@ class WallGap:
         self.dofs, self.X = dofs, X[dofs]
 
     def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Distance of each point to the nearest wall segment, and that segment's index."""
+        """Distance of each point to the nearest wall segment (3D: wall triangle), and its index."""
+        if self.segments.shape[1] == 3:
+            return _triangle_distance(points, self.segments)
         a, b = self.segments[:, 0], self.segments[:, 1]
         ab = b - a
         rel = points[:, None, :] - a[None]
@@ -256,26 +256,26 @@ class WallGap:
         """DivergenceError if a solid vertex at X + displacement (P1 dof array) is within the gap of a wall."""
         if not len(self.segments):
             return
-        x = self.X + solid_displacement.reshape(-1, 2)[self.dofs]
+        x = self.X + solid_displacement.reshape(-1, self.X.shape[1])[self.dofs]
         dist = self.distance(x)[0] if len(x) else np.zeros(0)
         worst = (float(dist.min()), tuple(x[int(dist.argmin())])) if len(dist) else (np.inf, None)
         gap, where = min(self.comm.allgather(worst), key=lambda w: w[0])
         if gap < self.gap:
-            raise DivergenceError(f"the solid is within {self.gap:.3g} of the wall near ({where[0]:.4g}, "
-                                  f"{where[1]:.4g}) at t = {t:.6g} (gap {gap:.3g}): no fluid mesh can carry "
-                                  "the flow between them")
+            raise DivergenceError(f"the solid is within {self.gap:.3g} of the wall near ("
+                                  f"{', '.join(f'{c:.4g}' for c in where)}) at t = {t:.6g} (gap {gap:.3g}): "
+                                  "no fluid mesh can carry the flow between them")
 
 
 class PrescribedMotion(_MovingMesh):
-    """The mesh follows a given displacement ``motion(X, t)`` of the reference coordinates X (n, 2) → (n, 2).
+    """The mesh follows a given displacement ``motion(X, t)`` of the reference coordinates X (n, d) → (n, d).
 
     For verification (ALE consistency): the flow must not notice a mesh motion that is not the material's.
     """
 
     def __init__(self, mesh, motion, comm=MPI.COMM_WORLD):
         super().__init__(mesh, comm)
-        n = len(self.X0)
-        self._X0_dof = np.zeros((len(self.displacement.x.array) // 2, 2))
+        n, d = len(self.X0), self.dim
+        self._X0_dof = np.zeros((len(self.displacement.x.array) // d, d))
         self._X0_dof[self.node_dof[:n]] = self.X0
         self.motion = motion
 
@@ -285,7 +285,14 @@ class PrescribedMotion(_MovingMesh):
 
 def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
     """Normalised shape quality 4√3·|K|/Σ|e|² of the local cells (1: equilateral, 0: flat, < 0: inverted
-    relative to ``orientation``, the signs of the reference cells' areas; without it the sign is gmsh's)."""
+    relative to ``orientation``, the signs of the reference cells' areas; without it the sign is gmsh's).
+    Tetrahedra: 6√2·|K|/(Σ|e|²/6)^(3/2) (1 for the regular tetrahedron)."""
+    if mesh.topology.dim == 3:
+        x, n = mesh.geometry.x, compat.geometry_dofmap(mesh)[:, :4]
+        edges = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+        squares = sum(((x[n[:, b]] - x[n[:, a]]) ** 2).sum(1) for a, b in edges)
+        quality = 6.0 * np.sqrt(2.0) * _signed_measures(mesh) / (squares / 6.0) ** 1.5
+        return quality if orientation is None else quality * orientation
     x = mesh.geometry.x[:, :2]
     n = compat.geometry_dofmap(mesh)[:, :3]
     e1, e2, e3 = x[n[:, 1]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 1]]
@@ -320,8 +327,16 @@ def _vertex_sizes(mesh):
 
 
 def _facet_segments(mesh, facets: np.ndarray) -> np.ndarray:
-    """The end points (k, 2, 2) of the given local facets, on the current mesh."""
+    """The end points (k, 2, 2) of the given local facets, on the current mesh (3D: the corners (k, 3, 3)
+    of the triangles)."""
     top = mesh.topology
+    if top.dim == 3:
+        top.create_connectivity(2, 0)
+        top.create_connectivity(3, 0)
+        vertex_node = np.empty(top.index_map(0).size_local + top.index_map(0).num_ghosts, dtype=np.int64)
+        vertex_node[top.connectivity(3, 0).array.reshape(-1, 4)] = compat.geometry_dofmap(mesh)[:, :4]
+        corners = top.connectivity(2, 0).array.reshape(-1, 3)[np.asarray(facets, dtype=np.int64)]
+        return mesh.geometry.x[vertex_node[corners]].copy()
     top.create_connectivity(1, 0)
     top.create_connectivity(2, 0)
     vertex_node = np.empty(top.index_map(0).size_local + top.index_map(0).num_ghosts, dtype=np.int64)
@@ -330,14 +345,44 @@ def _facet_segments(mesh, facets: np.ndarray) -> np.ndarray:
     return mesh.geometry.x[vertex_node[ends], :2].copy()
 
 
+def _signed_measures(mesh) -> np.ndarray:
+    """Signed areas (triangles) or volumes (tetrahedra) of the local cells, on the current mesh."""
+    n = compat.geometry_dofmap(mesh)
+    if mesh.topology.dim == 3:
+        x = mesh.geometry.x
+        e1, e2, e3 = (x[n[:, k]] - x[n[:, 0]] for k in (1, 2, 3))
+        return np.einsum("ij,ij->i", np.cross(e1, e2), e3) / 6.0
+    x = mesh.geometry.x[:, :2]
+    e1, e2 = x[n[:, 1]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 0]]
+    return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+
+def _triangle_distance(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance of each point (m, 3) to the nearest of the triangles (k, 3, 3), and its index: the distance
+    to the triangle's plane where the point projects inside it, else to its nearest corner (exact for the
+    flat walls of a duct, where every point near a wall projects inside one of its triangles)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    normal = np.cross(b - a, c - a)
+    area2 = np.linalg.norm(normal, axis=1)
+    normal = normal / area2[:, None]
+    rel = points[:, None, :] - a[None]  # (m, k, 3)
+    height = np.einsum("mkj,kj->mk", rel, normal)
+    foot = rel - height[..., None] * normal[None]
+    # barycentric coordinates of the foot: areas of the sub-triangles, signed along the normal
+    l1 = np.einsum("mkj,kj->mk", np.cross(foot, (c - a)[None]), normal) / area2  # foot = l1 (b − a) + l2 (c − a)
+    l2 = -np.einsum("mkj,kj->mk", np.cross(foot, (b - a)[None]), normal) / area2
+    inside = (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
+    corner = np.min(np.linalg.norm(points[:, None, None, :] - triangles[None], axis=3), axis=2)
+    dist = np.where(inside, np.abs(height), corner)
+    nearest = dist.argmin(axis=1)
+    return dist[np.arange(len(points)), nearest], nearest
+
+
 def _cell_area(mesh):
-    """|cell| as a DG0 function on the current (reference) mesh."""
+    """|cell| (area or volume) as a DG0 function on the current (reference) mesh."""
     Q = compat.function_space(mesh, "DG", 0)
     area = dolfinx.fem.Function(Q)
-    x = mesh.geometry.x[:, :2]
-    n = compat.geometry_dofmap(mesh)[:, :3]
-    e1, e2 = x[n[:, 1]] - x[n[:, 0]], x[n[:, 2]] - x[n[:, 0]]
-    a = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    a = np.abs(_signed_measures(mesh))
     dofs = compat.cell_dofs(Q)[:, 0]
     area.x.array[dofs] = a[: len(dofs)]
     return area

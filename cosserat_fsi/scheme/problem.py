@@ -67,7 +67,8 @@ class Problem:
                  facet_ids: dict[str, int] | None = None):
         """``exact``: optional manufactured solution; its ``body_force(x, t)`` / ``body_couple(x, t)``,
         when present, replace f and g (or its ``sources(X)``: {"body_force": f, "body_couple": g} as UFL
-        expressions of the spatial coordinate X, time independent). ``facet_ids``: facet name -> tag of this
+        expressions of the spatial coordinate X, time independent; ``sources(X, t)`` with t the time
+        Constant when ``exact.time_dependent``). ``facet_ids``: facet name -> tag of this
         mesh (default: the project's table, tags.FACET_TAGS; a file scene has its own, geometry.facet_ids)."""
         self.scene, self.mesh = scene, mesh
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
@@ -146,8 +147,10 @@ class Problem:
             else:
                 self.body_couple = self.constant(m.body_couple)
         sources = getattr(exact, "sources", None)
-        if sources is not None:  # steady manufactured solutions: f and g as UFL expressions of x
-            for name, expression in sources(ufl.SpatialCoordinate(self.mesh)).items():
+        if sources is not None:  # manufactured solutions: f and g as UFL expressions of x (and of the
+            X = ufl.SpatialCoordinate(self.mesh)  # time constant t, update_sources, if they depend on it)
+            given = sources(X, self.time) if getattr(exact, "time_dependent", False) else sources(X)
+            for name, expression in given.items():
                 setattr(self, name, expression)
         elif exact is not None:  # manufactured solutions: time-dependent f(x, t), g(x, t)
             for name, space in (("body_force", "velocity"), ("body_couple", "micro_rotation")):

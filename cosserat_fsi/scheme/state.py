@@ -54,7 +54,8 @@ class State:
             self.configuration_nm1 = dolfinx.fem.Function(motion.M)
         self.t = 0.0
         self.step_count = 0
-        self._reference = {name: f.function_space.tabulate_dof_coordinates()[:, :2].copy()
+        dim = problem.mesh.geometry.dim
+        self._reference = {name: f.function_space.tabulate_dof_coordinates()[:, :dim].copy()
                            for name, f in self.functions().items()}  # before the mesh moves
 
     def functions(self) -> dict[str, dolfinx.fem.Function]:
@@ -103,8 +104,10 @@ class State:
         """Rest (the solid with its initial velocity, the clamp at rest), or the exact solution at t = 0."""
         scene = problem.scene
         if problem.model.solid and any(scene.solid.initial_velocity):
-            values = self.velocity.x.array.reshape(-1, 2)
-            values[problem.solid_velocity_dofs] = scene.solid.initial_velocity
+            values = self.velocity.x.array.reshape(-1, problem.mesh.geometry.dim)
+            given = np.zeros(values.shape[1])
+            given[:len(scene.solid.initial_velocity)] = scene.solid.initial_velocity  # 3D default [0, 0]: z = 0
+            values[problem.solid_velocity_dofs] = given
             fixed = dolfinx.fem.locate_dofs_topological(self.velocity.function_space,
                                                         problem.mesh.topology.dim - 1,
                                                         problem.facets(*problem.no_slip_boundaries()))

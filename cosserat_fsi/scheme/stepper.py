@@ -181,7 +181,8 @@ class Stepper:
         nodes = self.problem.solid_velocity_dofs
         d_hat = self.d_predicted.x.array
         d_hat[:] = self.d_star.x.array
-        d_hat.reshape(-1, 2)[nodes] += dt_a * self.u_predicted.x.array.reshape(-1, 2)[nodes]
+        dim = self.problem.mesh.geometry.dim
+        d_hat.reshape(-1, dim)[nodes] += dt_a * self.u_predicted.x.array.reshape(-1, dim)[nodes]
         self.d_predicted.x.scatter_forward()
         with self.timers("assemble_matrix"):
             self.A.zeroEntries()
@@ -221,9 +222,10 @@ class Stepper:
         the seed's FSI3 run that drift triggers a local pressure blow-up at the flag tip."""
         state = self.state
         state.displacement_prev.x.array[:] = state.displacement.x.array
-        d, d_star = state.displacement.x.array.reshape(-1, 2), self.d_star.x.array.reshape(-1, 2)
+        dim = self.problem.mesh.geometry.dim
+        d, d_star = state.displacement.x.array.reshape(-1, dim), self.d_star.x.array.reshape(-1, dim)
         nodes = self.problem.solid_velocity_dofs
-        d[nodes] = d_star[nodes] + (self.dt / alpha) * state.velocity.x.array.reshape(-1, 2)[nodes]
+        d[nodes] = d_star[nodes] + (self.dt / alpha) * state.velocity.x.array.reshape(-1, dim)[nodes]
         state.displacement.x.scatter_forward()
 
     # ------------------------------------------------------------------------------ the mesh
@@ -265,7 +267,7 @@ class Stepper:
         self.state.to_mixed(self.solution, self.problem.space)
         if self.motion is not None:  # the mesh: reference + displacement
             m = self.motion
-            self.problem.mesh.geometry.x[:, :2] = m.X0 + m.displacement.x.array.reshape(-1, 2)[m.node_dof]
+            self.problem.mesh.geometry.x[:, :m.dim] = m.X0 + m.displacement.x.array.reshape(-1, m.dim)[m.node_dof]
             self.histories.relocate(m, self.state)
         self.A, self._alpha_of_A = None, None
         self.solver.reset()
