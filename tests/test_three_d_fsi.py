@@ -4,6 +4,10 @@ width clamped to the cylinder; level 0: 1,453 vertices, 6,506 tetrahedra, 31,883
 
 from __future__ import annotations
 
+import json
+import shutil
+import subprocess
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -11,6 +15,7 @@ from mpi4py import MPI
 from cosserat_fsi import compat
 from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.config import validate_scene
+from cosserat_fsi.io import read_timeseries
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.scheme.mesh_motion import MeshMotion
 from cosserat_fsi.simulation import Simulation
@@ -95,3 +100,82 @@ def test_thrown_flag_in_still_fluid_loses_energy(scheme):
     for f in (rest.velocity, rest.pressure, rest.displacement):
         assert np.abs(f.x.array).max() == 0.0
     assert np.all(rest_series["energy_total"] == 0.0)
+
+
+# ------------------------------------------------------------------------------------ the 3D FSI scene
+PV_SCRIPT = r"""
+import json, sys
+from paraview.simple import OpenDataFile
+from paraview import servermanager
+from vtk.util.numpy_support import vtk_to_numpy
+reader = OpenDataFile(sys.argv[1])
+out = {"times": list(reader.TimestepValues), "points": [], "cells": [], "arrays": []}
+for t in out["times"]:
+    reader.UpdatePipeline(t)
+    data = servermanager.Fetch(reader)
+    if data.IsA("vtkMultiBlockDataSet"):
+        data = data.GetBlock(0)
+    out["points"].append(data.GetNumberOfPoints())
+    out["cells"].append(data.GetNumberOfCells())
+    pd = data.GetPointData()
+    out["arrays"].append({pd.GetArrayName(i): list(vtk_to_numpy(pd.GetArray(i)).shape)
+                          for i in range(pd.GetNumberOfArrays())})
+print("JSON" + json.dumps(out))
+"""
+
+
+def _scene_run(run_cli, repo_root, out, config, launcher=()):
+    proc = run_cli("run", repo_root / "configs" / config, "--out", out, "--no-progress", "--overwrite",
+                   "--set", "time.t_end=0.015", "--set", "output.every=1", "--set", "inflow.ramp_time=0.05",
+                   launcher=launcher, timeout=1800)
+    assert proc.returncode == 0, proc.stderr
+    return read_timeseries(out / "timeseries.csv")
+
+
+@pytest.mark.parametrize("config", ["turek_hron_3d_fsi.yaml",
+                                    pytest.param("turek_hron_3d_cosserat_fsi.yaml", marks=pytest.mark.slow)])
+def test_3d_fsi_scene_serial_equals_two_ranks_and_paraview_reads_it(run_cli, repo_root, tmp_path, mpirun, config):
+    """The shipped 3D FSI scenes (level 0) for 3 BDF2 steps with the inflow ramped in over 0.05 s: every
+    column of the time series (forces, tip displacement, energies, flow rate, ω_max) the same on 1 and 2
+    ranks to 1e-8 (relative to the column's size); the energy finite, growing with the inflow and below
+    ½ρ (2.25 Ū)² |Ω| (measured 0.151, 2.29, 10.6 J); the fields.xdmf of the 2-rank run read by VTK (pyvista) and, where
+    installed, by pvpython: 4 time levels, the tetrahedral mesh with 3-component velocity (and
+    micro-rotation), the moving point A where timeseries.csv puts it."""
+    import pyvista as pv
+
+    serial = _scene_run(run_cli, repo_root, tmp_path / "np1", config)
+    parallel = _scene_run(run_cli, repo_root, tmp_path / "np2", config, mpirun(2))
+    for key, values in serial.items():
+        scale = max(np.abs(values).max(), 1e-30)
+        assert np.abs(parallel[key] - values).max() <= 1e-8 * scale, (key, values, parallel[key])
+    energy = serial["energy_total"]  # ½ρ|u|² with |u| at most the 3D profile's peak 2.25 Ū over the duct
+    bound = 0.5 * 1000.0 * (2.25 * 1.0) ** 2 * (2.5 * 0.41 * 0.41)
+    assert np.all(np.isfinite(energy)) and np.all(np.diff(energy) > 0) and energy[-1] < bound, energy
+    reader = pv.get_reader(str(tmp_path / "np2" / "fields.xdmf"))
+    assert np.allclose(reader.time_values, [0.0, 0.005, 0.01, 0.015])
+    A, positions = np.array([0.6, 0.2, 0.205]), []
+    for t in reader.time_values:
+        reader.set_active_time_value(t)
+        mesh = reader.read()
+        mesh = mesh[0] if isinstance(mesh, pv.MultiBlock) else mesh
+        assert set(mesh.celltypes) == {pv.CellType.TETRA} and mesh.point_data["velocity"].shape[1] == 3
+        if "cosserat" in config:
+            assert mesh.point_data["micro_rotation"].shape[1] == 3
+        x = np.asarray(mesh.points)
+        if not positions:  # the vertex at A on the reference mesh, followed through the steps
+            index = int(np.argmin(np.linalg.norm(x - A, axis=1)))
+        positions.append(x[index])
+    moved = np.array(positions[1:]) - positions[0]
+    assert np.allclose(positions[0], A, atol=1e-12)
+    np.testing.assert_allclose(moved, np.column_stack([serial["ux_A"], serial["uy_A"], serial["uz_A"]]),
+                               atol=1e-12 + 1e-8 * np.abs(serial["ux_A"]).max())
+    if shutil.which("pvpython"):
+        script = tmp_path / "read.py"
+        script.write_text(PV_SCRIPT)
+        proc = subprocess.run(["pvpython", "--force-offscreen-rendering", str(script),
+                               str(tmp_path / "np2" / "fields.xdmf")], capture_output=True, text=True, timeout=600)
+        line = [x for x in proc.stdout.splitlines() if x.startswith("JSON")]
+        assert proc.returncode == 0 and line, proc.stdout + proc.stderr
+        seen = json.loads(line[0][4:])
+        assert seen["times"] == [0.0, 0.005, 0.01, 0.015] and seen["cells"][0] == mesh.n_cells
+        assert seen["arrays"][-1]["velocity"] == [mesh.n_points, 3]
