@@ -59,7 +59,9 @@ CONTINUATIONS = {
                ("cfd3-euler-dt0.00125-4s", 3.5, ["time.dt=0.00125"], None),
                ("cfd3-back-to-0.0025", 2.5, ["time.dt=0.0025"], "cfd3-euler-dt0.00125-4s")],
     "fsi3-dt": [(f"fsi3-extrap-dt{dt}", seconds, [f"time.dt={dt}"], None)
-                for dt, seconds in ((0.003, 1.5), (0.0035, 2.0), (0.0045, 1.5), (0.005, 2.0), (0.0055, 1.5))] + [
+                for dt, seconds in ((0.002, 1.5), (0.0025, 1.5), (0.003, 1.5), (0.0035, 2.0), (0.0045, 1.5),
+                                    (0.005, 2.0), (0.0055, 1.5))] + [
+               ("fsi3-extrap-dt0.002-more", 1.5, [], "fsi3-extrap-dt0.002"),
                ("fsi3-extrap-back-to-0.004", 1.5, ["time.dt=0.004"], "fsi3-extrap-dt0.005"),
                ("fsi3-corr1-dt0.0045", 1.5, ["time.dt=0.0045"] + _CORR, None)],
     "cfd3-cost": [(f"cost-cfd3-{foot}-q{q}", 0.25, [f"time.foot={foot}", f"time.quadrature_degree={q}"], None)
