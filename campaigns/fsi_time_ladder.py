@@ -54,12 +54,12 @@ CONTINUATIONS = {
                   for q in (8, 12) for foot in ("euler", "midpoint")]
     + [("cfd3-midpoint-q8-long", 4.0, ["time.foot=midpoint"], None)],
     "cfd3-dt": [(f"cfd3-{foot}-dt{dt}", 2.0, [f"time.dt={dt}", f"time.foot={foot}"], None)
-                for foot, dts in (("euler", (0.002, 0.00125, 0.000625)), ("midpoint", (0.002, 0.00125)))
+                for foot, dts in (("euler", (0.00225, 0.002, 0.00125, 0.000625)), ("midpoint", (0.002, 0.00125)))
                 for dt in dts] + [
                ("cfd3-euler-dt0.00125-4s", 3.5, ["time.dt=0.00125"], None),
                ("cfd3-back-to-0.0025", 2.5, ["time.dt=0.0025"], "cfd3-euler-dt0.00125-4s")],
     "fsi3-dt": [(f"fsi3-extrap-dt{dt}", seconds, [f"time.dt={dt}"], None)
-                for dt, seconds in ((0.0035, 2.0), (0.0045, 1.5), (0.005, 2.0), (0.0055, 1.5))] + [
+                for dt, seconds in ((0.003, 1.5), (0.0035, 2.0), (0.0045, 1.5), (0.005, 2.0), (0.0055, 1.5))] + [
                ("fsi3-extrap-back-to-0.004", 1.5, ["time.dt=0.004"], "fsi3-extrap-dt0.005"),
                ("fsi3-corr1-dt0.0045", 1.5, ["time.dt=0.0045"] + _CORR, None)],
     "cfd3-cost": [(f"cost-cfd3-{foot}-q{q}", 0.25, [f"time.foot={foot}", f"time.quadrature_degree={q}"], None)
