@@ -1,0 +1,112 @@
+"""Direct (MUMPS) against iterative (FGMRES + Schur fieldsplit + AMG) per time step, on 2D and 3D ladders
+(issue 15; docs/performance.md, "Direct vs iterative").
+
+    python campaigns/solver_ladder.py [--quick] [--ranks 1 2] [--out docs/runs/solver_ladder.json]
+
+Each case is a fixed-mesh BDF2 scene run for 4 steps in a subprocess (serial, or under the stack's
+mpirun): step 1 includes the first factorisation (direct) or the AMG setup (iterative), step 2 the second
+(the BDF2 coefficient changes once), steps 3-4 are the steady per-step cost (back-substitution, or the
+Krylov iterations). Per step: CPU seconds of rank 0's process (the machine may be shared: CPU time, not wall
+time, is comparable), and the peak resident memory of the largest rank. One BLAS thread per rank.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+CASES = {  # name -> (scene sections, levels)
+    "2d_cavity": ({"geometry": {"name": "square"}, "fluid": {"rho": 1.0, "mu": 0.01}, "inflow": {"u_mean": 1.0},
+                   "time": {"dt": 0.01, "t_end": 0.04, "scheme": "characteristics2"}}, (2, 3, 4)),
+    "3d_cavity": ({"geometry": {"name": "cube"}, "fluid": {"rho": 1.0, "mu": 0.01, "body_force": [0.0, 0.0, 0.0]},
+                   "inflow": {"u_mean": 1.0},
+                   "time": {"dt": 0.01, "t_end": 0.04, "scheme": "characteristics2"}}, (1, 2, 3)),
+}
+STEPS = 4
+
+
+def one(sections: dict) -> dict:
+    """Run the scene for STEPS steps on COMM_WORLD; CPU and wall seconds per step, peak RSS (GB)."""
+    import numpy as np
+    from mpi4py import MPI
+
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import validate_scene
+    from cosserat_fsi.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    scene = validate_scene(sections)
+    mesh, ct, ft, _ = load_mesh(scene, comm)
+    sim = Simulation(scene, mesh, ct, ft, comm)
+    cpu, wall = [], []
+    for _ in range(STEPS):
+        c, w = time.process_time(), time.perf_counter()
+        sim.step()
+        cpu.append(time.process_time() - c)
+        wall.append(time.perf_counter() - w)
+    solver = sim.stepper.solver
+    rss = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2, op=MPI.MAX)
+    return {"dofs": sim.num_dofs()["total"], "ranks": comm.size, "cpu": np.round(cpu, 3).tolist(),
+            "wall": np.round(wall, 3).tolist(), "peak_rss_gb": round(rss, 3),
+            "krylov_iterations": getattr(solver, "krylov_iterations", None)}
+
+
+def _launcher(ranks: int) -> list[str]:
+    if ranks == 1:
+        return []
+    here = Path(sys.executable).parent
+    if (here / "mpiexec").exists():  # the pip stack's MPICH
+        return [str(here / "mpiexec"), "-n", str(ranks)]
+    return [shutil.which("mpirun") or "mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--quick", action="store_true", help="the two smallest levels only")
+    parser.add_argument("--cases", nargs="+", default=list(CASES))
+    parser.add_argument("--out", type=Path, default=Path("docs/runs/solver_ladder.json"))
+    parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one case (JSON sections)
+    args = parser.parse_args()
+    if args.one:
+        result = one(json.loads(args.one))
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.rank == 0:
+            print("RESULT " + json.dumps(result), flush=True)
+        return
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    results = json.loads(args.out.read_text()) if args.out.exists() else []
+    done = {(r["case"], r["level"], r["solver"], r["ranks"]) for r in results}
+    for case in args.cases:
+        sections, levels = CASES[case]
+        for level in levels[:2] if args.quick else levels:
+            for ranks in args.ranks:
+                for solver in ("direct", "iterative"):
+                    if (case, level, solver, ranks) in done:
+                        continue
+                    scene = json.loads(json.dumps(sections))
+                    scene["geometry"]["level"] = level
+                    scene["solver"] = {"type": solver}
+                    cmd = [*_launcher(ranks), sys.executable, __file__, "--one", json.dumps(scene)]
+                    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=7200)
+                    line = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
+                    if proc.returncode != 0 or not line:
+                        print(f"{case} L{level} {solver} np{ranks}: failed\n{proc.stderr[-2000:]}", flush=True)
+                        continue
+                    result = {"case": case, "level": level, "solver": solver, **json.loads(line[0][7:])}
+                    results.append(result)
+                    print(json.dumps(result), flush=True)
+                    args.out.parent.mkdir(parents=True, exist_ok=True)
+                    args.out.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
