@@ -29,15 +29,22 @@ def configure(gmsh):
     gmsh.model.add("cosserat_fsi")
 
 
-def threshold_field(gmsh, curves, size_min, size_max, dist_min, dist_max):
-    """Background size: ``size_min`` within ``dist_min`` of ``curves``, growing linearly to ``size_max``."""
+def threshold_field(gmsh, entities, size_min, size_max, dist_min, dist_max, dim=1, sampling=400):
+    """Background size: ``size_min`` within ``dist_min`` of ``entities`` (curves, ``dim`` = 1, or surfaces,
+    ``dim`` = 2), growing linearly to ``size_max``; ``sampling`` points per entity for the distance."""
     field = gmsh.model.mesh.field
     dist = field.add("Distance")
-    field.setNumbers(dist, "CurvesList", curves)
+    if dim == 1:
+        field.setNumbers(dist, "CurvesList", entities)
+    else:
+        try:  # gmsh >= 4.9 calls it SurfacesList, gmsh 4.8 (Debian) FacesList
+            field.setNumbers(dist, "SurfacesList", entities)
+        except Exception:
+            field.setNumbers(dist, "FacesList", entities)
     try:  # gmsh >= 4.11 calls it Sampling, gmsh 4.8 (Debian) NumPointsPerCurve
-        field.setNumber(dist, "Sampling", 400)
+        field.setNumber(dist, "Sampling", sampling)
     except Exception:
-        field.setNumber(dist, "NumPointsPerCurve", 400)
+        field.setNumber(dist, "NumPointsPerCurve", sampling)
     thr = field.add("Threshold")
     field.setNumber(thr, "InField", dist)
     for key, value in (("SizeMin", size_min), ("SizeMax", size_max), ("DistMin", dist_min), ("DistMax", dist_max)):
@@ -72,9 +79,10 @@ def classify_channel_curves(gmsh, length, height, circle=None):
     return groups
 
 
-def add_physical(gmsh, dim, tags, name):
-    """Physical group of entities ``tags`` of dimension ``dim`` with the project's tag for ``name``."""
-    value = (CELL_TAGS if dim == 2 else FACET_TAGS)[name]
+def add_physical(gmsh, dim, tags, name, tdim=2):
+    """Physical group of entities ``tags`` of dimension ``dim`` with the project's tag for ``name`` (cells
+    when ``dim`` is the mesh's dimension ``tdim``, else facets)."""
+    value = (CELL_TAGS if dim == tdim else FACET_TAGS)[name]
     gmsh.model.addPhysicalGroup(dim, sorted(tags), value)
     gmsh.model.setPhysicalName(dim, value, name)
 

@@ -12,6 +12,7 @@ from types import ModuleType
 from typing import Any, ClassVar, Literal
 
 from ..tags import CELL_TAGS, FACET_TAGS
+from ._gmsh import add_physical, threshold_field
 from ._model import GeometryBase
 
 LENGTH, HEIGHT = 2.5, 0.41
@@ -60,29 +61,12 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     cylinder = occ.addCylinder(*CENTRE, 0, 0, 0, HEIGHT, RADIUS)
     fluid, _ = occ.cut([(3, box)], [(3, cylinder)])
     occ.synchronize()
-    gmsh.model.addPhysicalGroup(3, [t for _, t in fluid], CELL_TAGS["fluid"])
-    gmsh.model.setPhysicalName(3, CELL_TAGS["fluid"], "fluid")
+    add_physical(gmsh, 3, [t for _, t in fluid], "fluid", tdim=3)
     groups: dict[str, list[int]] = {}
     for _, tag in gmsh.model.getEntities(2):
         groups.setdefault(_facet_name(gmsh, tag), []).append(tag)
     for name, tags in groups.items():
-        gmsh.model.addPhysicalGroup(2, sorted(tags), FACET_TAGS[name])
-        gmsh.model.setPhysicalName(2, FACET_TAGS[name], name)
-    field = gmsh.model.mesh.field
-    dist = field.add("Distance")
-    try:  # gmsh >= 4.9 calls it SurfacesList, gmsh 4.8 (Debian) FacesList
-        field.setNumbers(dist, "SurfacesList", groups["cylinder"])
-    except Exception:
-        field.setNumbers(dist, "FacesList", groups["cylinder"])
-    try:
-        field.setNumber(dist, "Sampling", 100)
-    except Exception:
-        field.setNumber(dist, "NumPointsPerCurve", 100)
-    thr = field.add("Threshold")
-    field.setNumber(thr, "InField", dist)
-    for key, value in (("SizeMin", H_MIN * scale), ("SizeMax", H_MAX * scale), ("DistMin", 0.0),
-                       ("DistMax", DIST_MAX)):
-        field.setNumber(thr, key, value)
-    field.setAsBackgroundMesh(thr)
+        add_physical(gmsh, 2, tags, name, tdim=3)
+    threshold_field(gmsh, groups["cylinder"], H_MIN * scale, H_MAX * scale, 0.0, DIST_MAX, dim=2, sampling=100)
     gmsh.option.setNumber("Mesh.Algorithm3D", 1)  # Delaunay (deterministic single-threaded)
     gmsh.model.mesh.generate(3)

@@ -20,6 +20,7 @@ from typing import Any, ClassVar, Literal
 from pydantic import Field, model_validator
 
 from ..tags import CELL_TAGS, FACET_TAGS
+from ._gmsh import add_physical, threshold_field
 from ._model import GeometryBase
 
 LENGTH, HEIGHT = 2.5, 0.41
@@ -106,35 +107,17 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     solid = [t for parts in children[n:] for _, t in parts]
     occ.synchronize()
     for name, tags in (("fluid", fluid), ("solid", solid)):
-        gmsh.model.addPhysicalGroup(3, sorted(tags), CELL_TAGS[name])
-        gmsh.model.setPhysicalName(3, CELL_TAGS[name], name)
+        add_physical(gmsh, 3, tags, name, tdim=3)
     groups: dict[str, list[int]] = {}
     for _, tag in gmsh.model.getEntities(2):
         groups.setdefault(_facet_name(gmsh, tag, params), []).append(tag)
     for name, tags in groups.items():
-        gmsh.model.addPhysicalGroup(2, sorted(tags), FACET_TAGS[name])
-        gmsh.model.setPhysicalName(2, FACET_TAGS[name], name)
+        add_physical(gmsh, 2, tags, name, tdim=3)
     tip = [t for t in groups["interface"] if abs(gmsh.model.occ.getCenterOfMass(2, t)[0] - FLAG_END) < _EPS]
     point_A = occ.addPoint(FLAG_END, CENTRE[1], W / 2)
     occ.synchronize()
     gmsh.model.mesh.embed(0, [point_A], 2, tip[0])  # A is a mesh vertex (observables: the tip displacement)
-    field = gmsh.model.mesh.field
-    dist = field.add("Distance")
-    near = groups["cylinder"] + groups["interface"]
-    try:  # gmsh >= 4.9 calls it SurfacesList, gmsh 4.8 (Debian) FacesList
-        field.setNumbers(dist, "SurfacesList", near)
-    except Exception:
-        field.setNumbers(dist, "FacesList", near)
-    try:
-        field.setNumber(dist, "Sampling", 60)
-    except Exception:
-        field.setNumber(dist, "NumPointsPerCurve", 60)
-    thr = field.add("Threshold")
-    field.setNumber(thr, "InField", dist)
-    for key, value in (("SizeMin", H_MIN * scale), ("SizeMax", H_MAX * scale), ("DistMin", 0.0),
-                       ("DistMax", DIST_MAX)):
-        field.setNumber(thr, key, value)
-    field.setAsBackgroundMesh(thr)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    threshold_field(gmsh, groups["cylinder"] + groups["interface"], H_MIN * scale, H_MAX * scale, 0.0, DIST_MAX,
+                    dim=2, sampling=60)
     gmsh.option.setNumber("Mesh.Algorithm3D", 1)  # Delaunay (deterministic single-threaded)
     gmsh.model.mesh.generate(3)
