@@ -207,6 +207,12 @@ class Time(_Section):
     ``foot`` (BDF2): the feet of the characteristics as straight lines x − δt u*, x − 2δt u* (``euler``)
     or by a midpoint (RK2) step with the velocity at the middle of each interval (``midpoint``:
     scheme/histories.py ``bdf2_feet``; three more point evaluations per point).
+    ``convection``: how the material derivative of the fluid is discretised — along the characteristics
+    (``characteristics``: the seed's §5, u^n∘X at the feet, no convection in the matrix) or along the moving
+    mesh's nodes (``ale``: BDF of the nodal values plus the convection ((u* − w*)·∇)u^{n+1} in the matrix,
+    u* and w* extrapolated to t^{n+1}, w* the mesh motion's extension of u*; none in solid cells, where
+    the mesh is the material). ``ale`` needs no back-tracking; the matrix changes every step; BDF2 on a
+    moving mesh then always solves on the extrapolated configuration (the nodes' places at t^{n+1}).
     """
 
     dt: PositiveFloat | None = None
@@ -221,6 +227,7 @@ class Time(_Section):
     solve_configuration: Literal["bdf_base", "extrapolated"] = "bdf_base"
     corrector_passes: int = Field(default=0, ge=0, le=5)
     foot: Literal["euler", "midpoint"] = "euler"
+    convection: Literal["characteristics", "ale"] = "characteristics"
 
     @model_validator(mode="after")
     def _steady_defaults(self):
@@ -369,6 +376,13 @@ class Scene(_Section):
                              f"(got scheme {time.scheme}{'' if self.has_solid else ', no solid'})")
         if time.foot != "euler" and time.scheme != "characteristics2":
             raise ValueError(f"time.foot: {time.foot!r} needs time.scheme 'characteristics2' (got {time.scheme})")
+        if time.convection == "ale":
+            if time.scheme == "steady":
+                raise ValueError("time.convection: 'ale' needs a time-dependent scheme (got steady)")
+            for key, default in (("corrector_passes", 0), ("foot", "euler"), ("characteristics", "quadrature"),
+                                 ("solid_linearisation", "seed")):
+                if getattr(time, key) != default:
+                    raise ValueError(f"time.{key}: not used with time.convection 'ale' (got {getattr(time, key)!r})")
         if time.scheme != "steady" and time.t_end < time.dt:
             raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
         if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf

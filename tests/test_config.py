@@ -56,6 +56,12 @@ BAD = [
      "time.corrector_passes: needs time.scheme 'characteristics2' and a solid"),
     ("midpoint_foot_on_first_order", None, ["time.foot=midpoint"],
      "time.foot: 'midpoint' needs time.scheme 'characteristics2'"),
+    ("ale_with_midpoint_foot", None, ["time.scheme=characteristics2", "time.convection=ale", "time.foot=midpoint"],
+     "time.foot: not used with time.convection 'ale' (got 'midpoint')"),
+    ("ale_steady", None, ["time.scheme=steady", "time.convection=ale"],
+     "time.convection: 'ale' needs a time-dependent scheme (got steady)"),
+    ("convection_unknown", None, ["time.convection=upwind"],
+     "time.convection: must be one of characteristics, ale (got 'upwind')"),
     ("bad_geometry", None, ["geometry.name=foo"],
      "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct, "
      "schaefer_turek_3d, turek_hron_3d (got 'foo')"),

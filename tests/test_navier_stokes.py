@@ -51,15 +51,20 @@ class TaylorGreen:
         return np.vstack([F * np.sin(x[0]) * np.cos(x[1]), -F * np.cos(x[0]) * np.sin(x[1])])
 
 
-@pytest.mark.parametrize("scheme, order", [("characteristics1", 1.0), ("characteristics2", 2.0)])
-def test_time_order_taylor_green(scheme, order):
-    """Observed order in δt of both time schemes (the nonlinear convection goes through the feet)."""
+@pytest.mark.parametrize("scheme, order, convection", [("characteristics1", 1.0, "characteristics"),
+                                                       ("characteristics2", 2.0, "characteristics"),
+                                                       ("characteristics1", 1.0, "ale"),
+                                                       ("characteristics2", 2.0, "ale")])
+def test_time_order_taylor_green(scheme, order, convection):
+    """Observed order in δt of both time schemes, with the nonlinear convection through the feet
+    (``characteristics``) or in the matrix with the extrapolated velocity (``ale`` on a fixed mesh)."""
     mu, T = 0.1, 1.0
     exact = TaylorGreen(mu)
     errors = []
     for dt in (0.2, 0.1, 0.05):
         scene = _scene(geometry={"name": "square", "level": 2, "length": float(np.pi)},
-                       fluid={"rho": 1.0, "mu": mu}, time={"dt": dt, "t_end": T, "scheme": scheme})
+                       fluid={"rho": 1.0, "mu": mu},
+                       time={"dt": dt, "t_end": T, "scheme": scheme, "convection": convection})
         sim, _ = _run(scene, exact=exact)
         u_exact = dolfinx.fem.Function(sim.velocity.function_space)
         u_exact.interpolate(lambda x: exact.velocity(x, T))

@@ -32,7 +32,8 @@ class Histories:
         self.micro = problem.model.micro_rotation
         V = sp.space("velocity")
         t = scene.time
-        self.degree = t.quadrature_degree if t.characteristics == "quadrature" else None
+        self.ale = t.convection == "ale"  # nodal histories, no feet (the stepper adds the convection)
+        self.degree = t.quadrature_degree if t.characteristics == "quadrature" and not self.ale else None
         self.midpoint = t.foot == "midpoint"
         if self.degree:
             self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (mesh.geometry.dim,)))
@@ -40,7 +41,8 @@ class Histories:
         else:
             self.velocity = dolfinx.fem.Function(V)
             self.dx_inertia = ufl.dx(domain=mesh)
-        self.omega_apart = bool(self.micro and self.degree and scene.micropolar.nodal_characteristics)
+        self.omega_apart = bool(self.micro and self.degree and scene.micropolar.nodal_characteristics
+                                and not self.ale)
         self.micro_rotation = None
         if self.micro:
             S = sp.space("micro_rotation")
@@ -61,7 +63,18 @@ class Histories:
     # ------------------------------------------------------------------------------------ update
     def update(self, alpha: float, state: State, solve_displacement=None) -> None:
         """Set α·h from ``state`` (first order, α = 1, or BDF2 feet). ``solve_displacement``: the P1 mesh
-        displacement of the configuration the step is solved on (BDF2 on a moving mesh)."""
+        displacement of the configuration the step is solved on (BDF2 on a moving mesh).
+
+        ``time.convection: ale``: α h = u^n (α = 1) or 2u^n − ½u^{n−1} node by node: the values the mesh's
+        nodes carried at t^n and t^{n−1} (the BDF of the nodal values is the time derivative along the
+        mesh's motion; the stepper adds the convection relative to it)."""
+        if self.ale:
+            for target, now, before in ((self.velocity, state.velocity, state.velocity_prev),
+                                        (self.micro_rotation, state.micro_rotation, state.micro_rotation_prev)):
+                if target is not None:
+                    target.x.array[:] = (now.x.array if alpha == 1.0
+                                         else 2.0 * now.x.array - 0.5 * before.x.array)
+            return
         chars, micro, degree = self.chars, self.micro, self.degree
         with_omega = micro and not self.omega_apart
         current = [state.velocity] + ([state.micro_rotation] if with_omega else [])
@@ -223,8 +236,8 @@ class Histories:
     # ------------------------------------------------------------------------------ locators
     def mesh_moved(self, rebuild: bool) -> None:
         """The mesh moved: ``rebuild`` a new locator (BDF2 keeps the old one as an earlier configuration)
-        or update the current one in place."""
-        if rebuild:
+        or update the current one in place. (``ale``: no earlier configurations are needed.)"""
+        if rebuild and not self.ale:
             self.chars.locator = PointLocator(self.chars.locator.mesh)
         else:
             self.chars.locator.update()

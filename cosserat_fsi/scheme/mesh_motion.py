@@ -221,6 +221,22 @@ class MeshMotion(_MovingMesh):
         return self._apply(self.extend(s), dt, t)
 
 
+    def velocity_of(self, velocity) -> np.ndarray:
+        """The mesh velocity (P1 dof array) that the velocity field ``velocity`` gives the mesh: its values
+        at the solid's vertices, extended (the extension is linear, so this is the rate of the mesh
+        displacement when the solid's vertices move with ``velocity``). The mesh is not moved, and the
+        motion's state (``solid_displacement``) is kept."""
+        self._u_P1.interpolate(velocity)
+        entries = self._solid_entries
+        s = np.zeros_like(self.solid_displacement.x.array)
+        s[entries] = self._u_P1.x.array[entries]
+        kept = self.solid_displacement.x.array.copy()  # extend() writes its solid entries there
+        try:
+            return self.extend(s)
+        finally:
+            self.solid_displacement.x.array[:] = kept
+
+
 class WallGap:
     """The solid must stay ``gap`` away from the channel's walls: closer, no fluid mesh between them can
     carry the flow (a contact problem this scheme does not model), so the run stops (exit 3) naming where."""
@@ -281,6 +297,13 @@ class PrescribedMotion(_MovingMesh):
 
     def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base=None):
         return self._apply(np.asarray(self.motion(self._X0_dof, t), dtype=float).ravel(), dt, t)
+
+    def velocity_of(self, velocity, t: float | None = None) -> np.ndarray:
+        """The mesh velocity (P1 dof array) at time ``t``: the prescribed motion's time derivative
+        (central difference); ``velocity`` (the flow) does not move this mesh."""
+        eps = 1e-6
+        ahead, behind = (np.asarray(self.motion(self._X0_dof, t + s), dtype=float).ravel() for s in (eps, -eps))
+        return (ahead - behind) / (2.0 * eps)
 
 
 def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:

@@ -19,6 +19,7 @@ from ..timers import Timers
 from .boundary import BoundaryConditions
 from .histories import Histories
 from .linear_solver import LinearSolver
+from .mesh_motion import PrescribedMotion
 from .problem import Problem
 from .state import State
 
@@ -58,11 +59,22 @@ class Stepper:
         self.solve_displacement = (dolfinx.fem.Function(motion.M) if motion is not None and self.order == 2
                                    else None)
         # ... and the BDF2 base (4D^n − D^{n−1})/3 the solid vertices move on from (time.solve_configuration)
-        self.extrapolate = self.solve_displacement is not None and scene.time.solve_configuration == "extrapolated"
+        # (time.convection: ale always: its nodal values are those of the nodes' places at t^{n+1})
+        self.extrapolate = self.solve_displacement is not None and (
+            scene.time.solve_configuration == "extrapolated" or scene.time.convection == "ale")
         # time.corrector_passes: re-solve on the predicted Ω^{n+1} around the predicted d^{n+1}
         self.passes = int(scene.time.corrector_passes) if self.solve_displacement is not None else 0
         self.motion_base = (np.zeros_like(self.solve_displacement.x.array) if self.extrapolate or self.passes
                             else None)
+        # time.convection: ale — the convecting velocity c = u* − w* of ((u* − w*)·∇)u, none in solid cells
+        self.ale = scene.time.convection == "ale"
+        self.convecting = self.fluid_cells = None
+        if self.ale:
+            V = problem.space.space("velocity")
+            self.convecting = dolfinx.fem.Function(V, name="convecting_velocity")
+            self.fluid_cells = problem.cellwise(1.0, 0.0) if problem.model.solid else None
+            if motion is not None:
+                self._w_P1, self._w = dolfinx.fem.Function(motion.M), dolfinx.fem.Function(V)
         self.solution = dolfinx.fem.Function(problem.space.W, name="state")
         self.a_form, self.L_form = self._forms()
         if self.passes:
@@ -75,7 +87,16 @@ class Stepper:
 
     def acceleration(self, u):
         """The material acceleration of u (the step's, with u the solution: residual forces)."""
-        return Histories.acceleration(u, self.histories.velocity, self.alpha, self.inv_dt)
+        return self._convected(u, Histories.acceleration(u, self.histories.velocity, self.alpha, self.inv_dt))
+
+    def _convected(self, f, rate):
+        """``rate`` + ((u* − w*)·∇)f in fluid cells with ``time.convection: ale`` (the BDF of the nodal
+        values is the rate along the mesh's motion w; the material derivative adds (u − w)·∇f), else
+        ``rate``."""
+        if not self.ale:
+            return rate
+        convection = ufl.grad(f) * self.convecting if ufl.shape(f) != () else ufl.dot(ufl.grad(f), self.convecting)
+        return rate + (convection if self.fluid_cells is None else self.fluid_cells * convection)
 
     @property
     def space(self):
@@ -101,7 +122,8 @@ class Stepper:
         pr, h = self.problem, self.histories
         trial, test = ufl.TrialFunctions(pr.space.W), ufl.TestFunctions(pr.space.W)
         u, _, omega = pr.split(trial)
-        micro = Histories.acceleration(omega, h.micro_rotation, self.alpha, self.inv_dt) if omega is not None else None
+        micro = (self._convected(omega, Histories.acceleration(omega, h.micro_rotation, self.alpha, self.inv_dt))
+                 if omega is not None else None)
         F = pr.residual(trial, test, acceleration=self.acceleration(u), micro_acceleration=micro,
                         dx_inertia=h.dx_inertia)
         if pr.model.solid:
@@ -120,6 +142,9 @@ class Stepper:
         if self.d_star is not None:
             d, d_prev = state.displacement.x.array, state.displacement_prev.x.array
             self.d_star.x.array[:] = d if alpha == 1.0 else (4.0 * d - d_prev) / 3.0
+        if self.ale:
+            with self.timers("mesh_motion"):
+                self._convecting_velocity(alpha, (state.step_count + 1) * self.dt)
         self._matrix(alpha)
         t_new = (state.step_count + 1) * self.dt
         self.boundary.update(t_new)
@@ -146,7 +171,7 @@ class Stepper:
 
     def _matrix(self, alpha: float):
         """Assemble (and have the solver factorise) the matrix when α changed or the mesh moved."""
-        if self.A is not None and self._alpha_of_A == alpha and self.motion is None:
+        if self.A is not None and self._alpha_of_A == alpha and self.motion is None and not self.ale:
             return
         with self.timers("assemble_matrix"):
             self.alpha.value = alpha
@@ -160,6 +185,21 @@ class Stepper:
             self.A.assemble()
             self.solver.set_operator(self.A)
             self._alpha_of_A = alpha
+
+    def _convecting_velocity(self, alpha: float, t_new: float):
+        """``time.convection: ale``: c = u* − w*, u* = u^n (first order) or 2u^n − u^{n−1}, w* the mesh
+        velocity the step's u* gives: the extension of u* from the solid's vertices (the solid vertices
+        move with the velocity and the extension is linear, so the mesh velocity of t^{n+1} is the
+        extension of u^{n+1}; u* makes it O(δt²)); a prescribed motion's, its rate at t^{n+1}."""
+        c, state, m = self.convecting, self.state, self.motion
+        u, u_prev = state.velocity.x.array, state.velocity_prev.x.array
+        c.x.array[:] = u if alpha == 1.0 else 2.0 * u - u_prev
+        if m is not None:
+            self._w_P1.x.array[:] = (m.velocity_of(c, t_new) if isinstance(m, PrescribedMotion)
+                                     else m.velocity_of(c))
+            self._w.interpolate(self._w_P1)
+            c.x.array[:] -= self._w.x.array
+        c.x.scatter_forward()
 
     def _correct(self, alpha: float, t_new: float):
         """One corrector pass (``time.corrector_passes``): with the solution as the prediction of u^{n+1},
