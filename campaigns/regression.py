@@ -31,14 +31,15 @@ RTOL = 1e-10
 _FAST_FLOW = ["geometry.level=0", "time.dt=0.005", "time.t_end=0.1", "inflow.ramp_time=0.05",
               "output.fields=false", "output.checkpoint_every=0"]
 _HARMONIC = ["solid.mesh_motion.method=harmonic"]  # the records were made with the seed's mesh motion (issue 13)
+_CHARS = ["time.convection=characteristics"]  # ... and the seed's characteristics (FSI3's default is ale since issue 12)
 CASES = {
     "st2d1": ("configs/schaefer_turek_2d1.yaml",
               ["geometry.level=0", "time.scheme=characteristics1", "time.dt=0.01", "time.t_end=0.2",
                "output.fields=false"]),
-    "cfd3-c1": ("configs/turek_hron_cfd3.yaml", _FAST_FLOW + ["time.scheme=characteristics1"]),
-    "cfd3-c2": ("configs/turek_hron_cfd3.yaml", _FAST_FLOW + ["time.scheme=characteristics2"]),
-    "fsi3-c1": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + ["time.scheme=characteristics1"]),
-    "fsi3-c2": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + ["time.scheme=characteristics2"]),
+    "cfd3-c1": ("configs/turek_hron_cfd3.yaml", _FAST_FLOW + _CHARS + ["time.scheme=characteristics1"]),
+    "cfd3-c2": ("configs/turek_hron_cfd3.yaml", _FAST_FLOW + _CHARS + ["time.scheme=characteristics2"]),
+    "fsi3-c1": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + _CHARS + ["time.scheme=characteristics1"]),
+    "fsi3-c2": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + _CHARS + ["time.scheme=characteristics2"]),
     "cosserat-fsi3": ("configs/seed_cosserat_fsi3.yaml",
                       [o for o in _FAST_FLOW if not o.startswith("geometry.")] + _HARMONIC),
     "csm1": ("configs/turek_hron_csm1.yaml",
@@ -48,8 +49,8 @@ CASES = {
                       ["geometry.level=0", "time.scheme=characteristics2", "time.dt=10", "time.t_end=50",
                        "output.fields=false"]),
     # fsi3-c2 in two legs: to t = 0.05 (checkpoint at step 5), then --restart from step 5 to t = 0.1
-    "restart": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + ["time.scheme=characteristics2"]),
-    "np2": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + ["time.scheme=characteristics2"]),
+    "restart": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + _CHARS + ["time.scheme=characteristics2"]),
+    "np2": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + _CHARS + ["time.scheme=characteristics2"]),
 }
 
 

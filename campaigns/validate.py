@@ -46,8 +46,8 @@ class Case:
                               {"output.fields": fields or self.fields, **self.overrides})
 
 
-def _c(level, scheme, dt, t_end=None):
-    o = {"geometry.level": level, "time.scheme": scheme, "time.dt": dt}
+def _c(level, scheme, dt, t_end=None, convection="characteristics"):
+    o = {"geometry.level": level, "time.scheme": scheme, "time.dt": dt, "time.convection": convection}
     if t_end is not None:
         o["time.t_end"] = t_end
     return o
@@ -95,6 +95,8 @@ SEED = {"uy_A.amplitude": 0.25, "uy_A.frequency": 0.10}
 # the shipped CSM and FSI1 scenes are steady (Newton); these cases keep the seed's time stepping
 CSM_STEPPING = {"time.scheme": "characteristics1", "time.dt": 0.005, "time.t_end": 8.0}
 FSI1_STEPPING = {"time.scheme": "characteristics1", "time.dt": 0.01, "time.t_end": 15.0}
+C1 = {"time.scheme": "characteristics1", "time.convection": "characteristics"}  # FSI3's default was, until issue 12
+C2 = {"time.scheme": "characteristics2", "time.convection": "characteristics"}
 FSI_CASES = [
     Case("csm1-L1", "configs/turek_hron_csm1.yaml", {**CSM_STEPPING}, CSM),
     Case("csm1-L1-eq", "configs/turek_hron_csm1.yaml", {**CSM_STEPPING, "solid.mu_s": 0.5e6 * EQ}, CSM,
@@ -107,21 +109,27 @@ FSI_CASES = [
          "FSI1 with the bending-equivalent μ_s = 0.4167e6"),
     Case("fsi3-seed-dt0.005", "configs/seed_fsi3.yaml", {"benchmark": "turek_hron_fsi3"}, FSI3,
          "the seed's settings (its mesh, δt = 0.005) against Turek–Hron FSI3"),
-    Case("fsi3-seed-dt0.002", "configs/turek_hron_fsi3.yaml", {"geometry.level": "seed", "time.dt": 0.002}, FSI3),
+    Case("fsi3-seed-dt0.002", "configs/turek_hron_fsi3.yaml", {**C1, "geometry.level": "seed", "time.dt": 0.002},
+         FSI3),
     Case("fsi3-seed-dt0.002-eq", "configs/turek_hron_fsi3.yaml",
-         {"geometry.level": "seed", "time.dt": 0.002, "solid.mu_s": 2.0e6 * EQ}, FSI3,
+         {**C1, "geometry.level": "seed", "time.dt": 0.002, "solid.mu_s": 2.0e6 * EQ}, FSI3,
          "FSI3 with the bending-equivalent μ_s = 1.667e6 (the benchmark's St. Venant–Kirchhoff flag, "
          "ν = 0.4, bends like an incompressible one with 5/6 of its shear modulus)"),
-    Case("fsi3-seed-dt0.001", "configs/turek_hron_fsi3.yaml", {"geometry.level": "seed"}, FSI3),
-    Case("fsi3-L1-dt0.002", "configs/turek_hron_fsi3.yaml", {"time.dt": 0.002}, FSI3),
-    Case("fsi3-L1-dt0.001", "configs/turek_hron_fsi3.yaml", {}, FSI3),
+    Case("fsi3-seed-dt0.001", "configs/turek_hron_fsi3.yaml", {**C1, "geometry.level": "seed", "time.dt": 0.001},
+         FSI3),
+    Case("fsi3-L1-dt0.002", "configs/turek_hron_fsi3.yaml", {**C1, "time.dt": 0.002}, FSI3),
+    Case("fsi3-L1-dt0.001", "configs/turek_hron_fsi3.yaml", {**C1, "time.dt": 0.001}, FSI3),
     Case("fsi3-seed-c2-dt0.005", "configs/turek_hron_fsi3.yaml",
-         {"geometry.level": "seed", "time.dt": 0.005, "time.scheme": "characteristics2"}, FSI3,
+         {**C2, "geometry.level": "seed", "time.dt": 0.005}, FSI3,
          "BDF2 everywhere (fluid, solid, mesh motion) at the seed's δt"),
     Case("fsi3-seed-c2-dt0.002", "configs/turek_hron_fsi3.yaml",
-         {"geometry.level": "seed", "time.dt": 0.002, "time.scheme": "characteristics2"}, FSI3),
-    Case("fsi3-L1-c2-dt0.002", "configs/turek_hron_fsi3.yaml", {"time.dt": 0.002, "time.scheme": "characteristics2"},
-         FSI3),
+         {**C2, "geometry.level": "seed", "time.dt": 0.002}, FSI3),
+    Case("fsi3-L1-c2-dt0.002", "configs/turek_hron_fsi3.yaml", {**C2, "time.dt": 0.002}, FSI3),
+    Case("fsi3-L1-ale-dt0.005", "configs/turek_hron_fsi3.yaml", {}, FSI3,
+         "the shipped scene as it is (issue 12): BDF2 with the convection relative to the moving mesh "
+         "(time.convection: ale), δt = 0.005, L1"),
+    Case("fsi3-seed-ale-dt0.005", "configs/turek_hron_fsi3.yaml", {"geometry.level": "seed"}, FSI3,
+         "the shipped scene on the seed's mesh"),
     Case("seed-dt0.005", "configs/seed_fsi3.yaml", {}, SEED,
          "the seed's own run, against the seed's ≈ 4.5 Hz, ≈ 0.03 m. It used to diverge at t = 6.09 (a "
          "pressure blow-up at the flag tip): back-tracking d with the ALE velocity let the mid-edge values "
