@@ -269,6 +269,10 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
     write_checkpoint(out, sim, comm, {"fingerprint": scene_fingerprint(scene), "rows": sim.step_count,
                                       "field_steps": 0})
     wall = {"per_step": per_step, "phases_per_step": phases}
+    solver = sim.stepper.solver
+    if getattr(solver, "reuse", False):
+        wall["factorisations_per_step"] = solver.factorisations / n_steps
+        wall["krylov_iterations_per_step"] = solver.krylov_iterations / n_steps
     (out / "summary.json").write_text(json.dumps({"status": "completed", "overrides": overrides, "from": str(run_dir),
                                                   "wall_time": wall,
                                                   "mesh": {"vertices": mesh.topology.index_map(0).size_global}}))

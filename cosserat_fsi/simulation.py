@@ -75,7 +75,8 @@ class Simulation:
             return steady_stepper(self.problem, self.state, boundary, self.motion, self.timers, comm)
         histories = Histories(scene, self.problem, float(scene.time.dt), comm, moving=self.motion is not None)
         solver = LinearSolver(scene.solver, comm,
-                              reuse_factorization=self.motion is not None and scene.solver.reuse_factorization,
+                              reuse_factorization=scene.solver.reuses_factorization(self.motion is not None,
+                                                                                    scene.time.convection),
                               problem=self.problem)
         return Stepper(self.problem, self.state, boundary, histories, solver, self.motion, self.timers, comm)
 

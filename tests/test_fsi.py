@@ -108,8 +108,9 @@ def test_bdf2_on_a_moving_mesh_is_second_order(convection):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("options", [{}, {"solid_linearisation": "consistent"},
-                                     {"solve_configuration": "extrapolated"}, {"corrector_passes": 1}],
-                         ids=["seed", "consistent", "extrapolated", "corrector"])
+                                     {"solve_configuration": "extrapolated"}, {"corrector_passes": 1},
+                                     {"convection": "ale"}],
+                         ids=["seed", "consistent", "extrapolated", "corrector", "ale"])
 def test_solid_time_order(options):
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and

@@ -329,7 +329,8 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             "mesh": {"geometry": scene.geometry.name, "level": scene.geometry.level, "vertices": n_vertices},
             "model": sim.model.describe(),
             "dofs": sim.num_dofs(),
-            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": sim.step_count,
+            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme, "convection": scene.time.convection,
+                     "steps": sim.step_count,
                      "t_final": sim.t},
             "memory": memory,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
@@ -338,6 +339,10 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
         }
         # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
         summary["signals"], summary["periodic"] = classify_signals(series)
+        solver = getattr(sim.stepper, "solver", None)
+        if getattr(solver, "reuse", False):  # LU kept as GMRES preconditioner: how often it was renewed
+            summary["linear_solver"] = {"factorisations": int(solver.factorisations),
+                                        "krylov_iterations": int(solver.krylov_iterations)}
         if sim.report is not None:  # steady solve: Newton's iterations and residuals
             summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):

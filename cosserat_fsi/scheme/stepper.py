@@ -6,6 +6,14 @@ side), so it is assembled and factorised once per value of the BDF coefficient �
 first-order scheme, twice for BDF2 (its first step is first order). On a moving mesh it is reassembled
 every step; BDF2 then solves on the extrapolated configuration Ω* = X + (4D^n − D^{n−1})/3 (second order
 in the geometry) where d* = (4d^n − d^{n−1})/3 lives.
+
+``time.convection: ale`` (issue 12) discretises the fluid's material derivative along the mesh's nodes
+instead of the characteristics: α(u − h)/δt with h the nodal values of the earlier levels, plus the
+convection ((u* − w*)·∇)u in the matrix, u* = 2u^n − u^{n−1} and w* the mesh velocity u* gives (zero in
+solid cells, where the mesh is the material and the nodal BDF2 is already the material derivative). One
+linear solve per step as before, no back-tracking; the matrix changes every step (the kept factorisation
+preconditions GMRES), and BDF2 on a moving mesh is solved on the extrapolated configuration, where the
+nodes are at t^{n+1} to O(δt²).
 """
 
 from __future__ import annotations
