@@ -318,6 +318,8 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
         s = json.loads(path.read_text())
         mesh = f"L{s['mesh']['level']} ({s['mesh']['vertices']:,})"
         scheme = {"characteristics2": "BDF2", "steady": "steady"}.get(s["time"]["scheme"], "1st order")
+        if s["time"].get("convection") == "ale":
+            scheme += ", ale"
         dt = "–" if s["time"]["scheme"] == "steady" else s["time"]["dt"]
         status = "" if s["status"] == "completed" else f" ({s['status']})"
         found = observed(case, runs, s)
