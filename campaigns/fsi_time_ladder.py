@@ -12,6 +12,7 @@ two), the observed order of the amplitude against the finest run of each ladder,
         # diagnosis: continue DIR's checkpoint with other options (a restart refuses them), also another δt
     python campaigns/fsi_time_ladder.py --continuations cfd3-dt --from DIR --runs R --md T.md  # session 12's
     python campaigns/fsi_time_ladder.py --foot-map DIR --dts 0.0025 0.002  # the foot maps in DIR's flow
+    python campaigns/fsi_time_ladder.py --averages DIR [DIR ...]  # uy(A) averaged over the last 2 s
 """
 
 from __future__ import annotations
@@ -114,6 +115,24 @@ def analyse(out: Path) -> dict:
         row["vertices"] = s["mesh"]["vertices"]
         row["status"] = s["status"]
     return row
+
+
+def averaged(out: Path, seconds: float = 2.0) -> str:
+    """uy(A) over the last ``seconds``: (mean of the maxima − mean of the minima)/2 and the frequency of the
+    maxima, with the range of the maxima (a modulation the last period alone does not show)."""
+    with open(out / "timeseries.csv") as f:
+        names = f.readline().strip().split(",")
+    data = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
+    t, y = data[:, 0], data[:, names.index("uy_A")]
+    inner = np.arange(1, len(y) - 1)
+    peaks = inner[(y[1:-1] > y[:-2]) & (y[1:-1] > y[2:]) & (t[1:-1] > t[-1] - seconds)]
+    troughs = inner[(y[1:-1] < y[:-2]) & (y[1:-1] < y[2:]) & (t[1:-1] > t[-1] - seconds)]
+    amp = (y[peaks].mean() - y[troughs].mean()) / 2
+    freq = (len(peaks) - 1) / (t[peaks[-1]] - t[peaks[0]])
+    ref_a, ref_f = REFERENCE["uy_A"]
+    return (f"{out.name}: amplitude {amp * 1e3:.3f} mm ({100 * (amp / ref_a - 1):+.2f} %), peaks "
+            f"{y[peaks].min() * 1e3:.2f}–{y[peaks].max() * 1e3:.2f} mm, frequency {freq:.4f} Hz "
+            f"({100 * (freq / ref_f - 1):+.2f} %)")
 
 
 def _pct(x):
@@ -282,6 +301,8 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--ladder", choices=sorted(LADDERS))
+    p.add_argument("--averages", nargs="+", type=Path, metavar="DIR",
+                   help="uy(A) averaged over the last 2 s of each finished FSI run (session 13)")
     p.add_argument("--runs", type=Path, default=ROOT / "runs" / "issue12")
     p.add_argument("--read", nargs="*", type=Path, default=[])
     p.add_argument("--md", type=Path)
@@ -294,6 +315,9 @@ def main(argv=None) -> int:
     p.add_argument("--foot-map", dest="foot_map", type=Path, help="checkpointed run: the foot maps' numbers")
     p.add_argument("--dts", type=float, nargs="*", default=[0.005, 0.004, 0.0025, 0.002, 0.00125, 0.000625])
     a = p.parse_args(argv)
+    if a.averages:
+        print("\n".join(averaged(d) for d in a.averages))
+        return 0
     if a.foot_map:
         print(foot_map(a.foot_map, a.dts))
         return 0
