@@ -149,6 +149,8 @@ class Solid(_Section):
     ``gravity_ramp_time`` (a slow ramp reaches a static deflection without exciting the free
     oscillation). ``volume_correction``: make the next velocity undo the area drift J ≠ 1 that the
     seed's explicit node update x += δt u accumulates (on by default; off is the seed's scheme).
+    ``volume_correction_time`` (s): undo it over max(δt/α, this) instead of in one step (0: one step, as
+    before); at small δt the one-step correction feeds back on itself (docs/performance.md, issue 12).
     ``initial_velocity``: uniform initial velocity
     of the solid (m/s), e.g. to start a free vibration. ``mesh_motion``: see :class:`MeshMotionSettings`.
     """
@@ -159,6 +161,7 @@ class Solid(_Section):
     gravity: float = 0.0
     gravity_ramp_time: NonNegFloat = 0.0
     volume_correction: bool = True
+    volume_correction_time: NonNegFloat = 0.0
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # 3 in 3D
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
 

@@ -256,10 +256,12 @@ def test_fsi_serial_equals_parallel(scheme, convection):
     assert np.abs(serial["uy_A"]).max() > 1e-5  # the flag did move
 
 
-@pytest.mark.parametrize("correction", [True, False])
-def test_solid_area_is_kept_by_the_volume_correction(correction):
+@pytest.mark.parametrize("correction, relax", [(True, 0.0), (False, 0.0), (True, 0.05)])
+def test_solid_area_is_kept_by_the_volume_correction(correction, relax):
     """A flag swinging fast (≈ 0.1 rad per step): the seed's node update x += δt u inflates it; with the
-    volume correction (default) its area stays within 0.1 % of 0.35 × 0.02."""
+    volume correction (default) its area stays within 0.1 % of 0.35 × 0.02 (measured 1.6e-4; without it
+    3.8e-2). Undone over ``volume_correction_time`` = 0.05 s (5 steps) instead of one step, the drift
+    settles near its rate × 0.05 s: measured 2.4e-3 (0.02 s: 5.5e-4)."""
     import dolfinx
     import ufl
 
@@ -267,12 +269,15 @@ def test_solid_area_is_kept_by_the_volume_correction(correction):
 
     scene = validate_scene({"geometry": {"name": "flag", "level": 0},
                             "solid": {"rho": 1000.0, "mu_s": 2.0e6, "initial_velocity": [0.0, 1.0],
-                                      "volume_correction": correction},
+                                      "volume_correction": correction, "volume_correction_time": relax},
                             "time": {"dt": 0.01, "t_end": 0.5}})
     sim, _ = _run(scene)
     area = sim.comm.allreduce(dolfinx.fem.assemble_scalar(
         compat.form(dolfinx.fem.Constant(sim.mesh, 1.0) * ufl.dx)), op=MPI.SUM)
     drift = abs(area / (0.35 * 0.02) - 1)
+    if relax:
+        assert 1e-3 < drift < 5e-3, drift
+        return
     assert (drift < 1e-3) if correction else (drift > 3e-3), drift
 
 

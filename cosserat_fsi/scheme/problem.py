@@ -270,7 +270,9 @@ class Problem:
                       else solid.linearised_stress_residual)
             F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
         if self.scene.solid.volume_correction:
-            F = F + solid.volume_correction_residual(q, d_star, dt=dt, dx_solid=self.dx_solid)
+            tau = self.scene.solid.volume_correction_time
+            rate_time = ufl.max_value(dt, self.constant(tau)) if tau > 0 else dt
+            F = F + solid.volume_correction_residual(q, d_star, dt=rate_time, dx_solid=self.dx_solid)
         return F
 
     def num_dofs(self) -> dict:
