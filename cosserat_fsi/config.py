@@ -206,7 +206,8 @@ class Time(_Section):
     (``extrapolated``: the solid's gradients and the interface of t^{n+1} to O(δt²), scheme/stepper.py).
     ``corrector_passes`` (BDF2 with a solid): after the solve, move the mesh to the predicted Ω^{n+1},
     back-track again from there, linearise the solid stress around the predicted d^{n+1} and solve again
-    (the kept factorisation preconditions it); 0 = one solve per step.
+    (the kept factorisation preconditions it); 0 = one solve per step. With ``convection: ale``: re-solve
+    with the convection linearised around the last solution instead (Picard), on any BDF2 scene.
     ``foot`` (BDF2): the feet of the characteristics as straight lines x − δt u*, x − 2δt u* (``euler``)
     or by a midpoint (RK2) step with the velocity at the middle of each interval (``midpoint``:
     scheme/histories.py ``bdf2_feet``; three more point evaluations per point).
@@ -384,15 +385,17 @@ class Scene(_Section):
         if time.solid_linearisation == "consistent" and time.solve_configuration == "extrapolated":
             raise ValueError("time.solid_linearisation: 'consistent' linearises around the BDF2 base "
                              "configuration; with time.solve_configuration 'extrapolated' use 'seed'")
-        if time.corrector_passes and (time.scheme != "characteristics2" or not self.has_solid):
-            raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid "
-                             f"(got scheme {time.scheme}{'' if self.has_solid else ', no solid'})")
+        if time.corrector_passes and (time.scheme != "characteristics2"
+                                      or not (self.has_solid or time.convection == "ale")):
+            got = f"{time.scheme}{'' if self.has_solid else ', no solid'}"
+            raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid or "
+                             f"time.convection 'ale' (got scheme {got})")
         if time.foot != "euler" and time.scheme != "characteristics2":
             raise ValueError(f"time.foot: {time.foot!r} needs time.scheme 'characteristics2' (got {time.scheme})")
         if time.convection == "ale":
             if time.scheme == "steady":
                 raise ValueError("time.convection: 'ale' needs a time-dependent scheme (got steady)")
-            for key, default in (("corrector_passes", 0), ("foot", "euler"), ("characteristics", "quadrature"),
+            for key, default in (("foot", "euler"), ("characteristics", "quadrature"),
                                  ("solid_linearisation", "seed")):
                 if getattr(time, key) != default:
                     raise ValueError(f"time.{key}: not used with time.convection 'ale' (got {getattr(time, key)!r})")

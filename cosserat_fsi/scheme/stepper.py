@@ -83,6 +83,10 @@ class Stepper:
             self.fluid_cells = problem.cellwise(1.0, 0.0) if problem.model.solid else None
             if motion is not None:
                 self._w_P1, self._w = dolfinx.fem.Function(motion.M), dolfinx.fem.Function(V)
+        # ale: time.corrector_passes re-linearise the convection around the last solution (Picard)
+        self.picard = int(scene.time.corrector_passes) if self.ale else 0
+        if self.ale:
+            self.passes = 0
         self.solution = dolfinx.fem.Function(problem.space.W, name="state")
         self.a_form, self.L_form = self._forms()
         if self.passes:
@@ -167,6 +171,8 @@ class Stepper:
         self._check_finite(t_new)
         for _ in range(self.passes if alpha != 1.0 else 0):
             self._correct(alpha, t_new)
+        for _ in range(self.picard if alpha != 1.0 else 0):
+            self._picard(t_new)
         state.shift(self.solution, self.problem.space)
         if self.d_star is not None:
             self._update_displacement(alpha)
@@ -202,12 +208,34 @@ class Stepper:
         c, state, m = self.convecting, self.state, self.motion
         u, u_prev = state.velocity.x.array, state.velocity_prev.x.array
         c.x.array[:] = u if alpha == 1.0 else 2.0 * u - u_prev
+        self._u_star = c.x.array.copy()
         if m is not None:
             self._w_P1.x.array[:] = (m.velocity_of(c, t_new) if isinstance(m, PrescribedMotion)
                                      else m.velocity_of(c))
             self._w.interpolate(self._w_P1)
             c.x.array[:] -= self._w.x.array
         c.x.scatter_forward()
+
+    def _picard(self, t_new: float):
+        """``time.convection: ale`` with ``time.corrector_passes``: the convecting velocity becomes
+        u^{n+1} − w* with the step's solution for u^{n+1} (one Picard iteration of the convection; the
+        mesh, its velocity and the histories stay), and the step is solved again."""
+        c = self.convecting
+        u_new = np.ravel(self.solution.x.array[self.problem.space.dofs("velocity")])
+        c.x.array[:] += u_new - self._u_star
+        self._u_star = u_new.copy()
+        c.x.scatter_forward()
+        with self.timers("assemble_matrix"):
+            self.A.zeroEntries()
+            fem_petsc.assemble_matrix(self.A, self.a_form, bcs=self.boundary.bcs)
+            self.A.assemble()
+            self.solver.set_operator(self.A)
+        with self.timers("assemble_vector"):
+            self._vector()
+        with self.timers("solve"):
+            self.solver.solve(self.b, compat.petsc_vec(self.solution))
+            self.solution.x.scatter_forward()
+        self._check_finite(t_new)
 
     def _correct(self, alpha: float, t_new: float):
         """One corrector pass (``time.corrector_passes``): with the solution as the prediction of u^{n+1},
