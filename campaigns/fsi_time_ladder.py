@@ -35,14 +35,15 @@ FSI3_SEED = ("configs/turek_hron_fsi3.yaml", {"geometry.level": "seed", "time.sc
 FSI3_L1 = ("configs/turek_hron_fsi3.yaml", {"time.scheme": "characteristics2"})
 CFD3_L1 = ("configs/turek_hron_cfd3.yaml", {})
 DTS = (0.01, 0.005, 0.0025, 0.00125)
-ALE = {"time.convection": "ale"}
+ALE = {"time.convection": "ale", "time.corrector_passes": 0}
+CHARS = {"time.convection": "characteristics", "time.corrector_passes": 0, "time.scheme": "characteristics2"}
 LADDERS = {
     "fsi3-seed": [(f"fsi3-seed-c2-corr1-dt{dt}", *FSI3_SEED, {"time.corrector_passes": 1, "time.dt": dt,
                                                             "time.t_end": 7.0}) for dt in DTS],
     "fsi3-L1": [(f"fsi3-L1-c2-corr1-dt{dt}", *FSI3_L1, {"time.corrector_passes": 1, "time.dt": dt,
                                                         "time.t_end": 7.0}) for dt in DTS],
-    "cfd3": [(f"cfd3-L1-c2-dt{dt}", *CFD3_L1, {"time.dt": dt, "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002,
-                                                                                          0.001)],
+    "cfd3": [(f"cfd3-L1-c2-dt{dt}", *CFD3_L1, {**CHARS, "time.dt": dt, "time.t_end": 16.0})
+             for dt in (0.005, 0.0025, 0.002, 0.001)],
     # session 13: time.convection: ale (BDF2 of the nodal values + semi-implicit convection relative to the mesh)
     "fsi3-seed-ale": [(f"fsi3-seed-ale-dt{dt}", *FSI3_SEED, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],
     "fsi3-L1-ale": [(f"fsi3-L1-ale-dt{dt}", *FSI3_L1, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],

@@ -47,7 +47,8 @@ class Case:
 
 
 def _c(level, scheme, dt, t_end=None, convection="characteristics"):
-    o = {"geometry.level": level, "time.scheme": scheme, "time.dt": dt, "time.convection": convection}
+    o = {"geometry.level": level, "time.scheme": scheme, "time.dt": dt, "time.convection": convection,
+         "time.corrector_passes": 0}
     if t_end is not None:
         o["time.t_end"] = t_end
     return o
