@@ -79,6 +79,9 @@ CASES = [
          {**_c(2, "characteristics2", 0.0025, 8), "inflow.asymmetry": 0.1}, CFD3,
          "started with `inflow.asymmetry: 0.1` (a tilt of the inflow during the ramp only) so that the "
          "shedding is saturated by t ≈ 5 instead of t ≈ 8"),
+    Case("cfd3-L1-ale-picard-dt0.002", "configs/turek_hron_cfd3.yaml", {}, CFD3,
+         "the shipped scene as it is (issue 12): BDF2 with the convection in the matrix, re-linearised once "
+         "around each step's solution (time.convection: ale, time.corrector_passes: 1), δt = 0.002, L1"),
     Case("cfd3-L1-c2-dt0.001", "configs/turek_hron_cfd3.yaml",
          {**_c(1, "characteristics2", 0.001, 8), "inflow.asymmetry": 0.1}, CFD3,
          "the time step, not the mesh, limits the lift amplitude: BDF2 on L1 gives −15 % at δt = 0.0025 "
