@@ -14,6 +14,8 @@ levels × δt × scheme × solver options):
       c2: {time.scheme: characteristics2}                      # run at every point of the ladder (ids
       c2-extrapolated: {time.scheme: characteristics2,         # end in -<variant>): for options that
                         time.solve_configuration: extrapolated}  # only make sense together
+    extra:                                                     # optional: single runs beside the ladder
+      ale-dt0.002-level1: {geometry.level: 1, time.dt: 0.002, time.convection: ale}   # (id: overrides)
     ranks: 1                                                   # optional: runs under mpirun -n ranks
 
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
@@ -52,6 +54,7 @@ class Study(BaseModel):
     base: dict[str, Any] = {}
     ladder: dict[str, list[Any]] = Field(min_length=1)
     variants: dict[str, dict[str, Any]] = {}
+    extra: dict[str, dict[str, Any]] = {}
     ranks: int = Field(default=1, ge=1, le=1024)
 
 
@@ -69,12 +72,14 @@ def load_study(path: str | Path) -> Study:
         raise InputError(f"{path}: {where}: {' '.join(err['msg'].lower().split())[:200]}") from None
     if not _config_path(study, path).exists():
         raise InputError(f"{path}: config: {study.config} not found")
-    for name in study.variants:
-        if not name or not all(c.isalnum() or c in "_.-" for c in name):
-            raise InputError(f"{path}: variants.{name}: a name of letters, digits, '_', '.', '-'")
+    for section, names in (("variants", study.variants), ("extra", study.extra)):
+        for name in names:
+            if not name or not all(c.isalnum() or c in "_.-" for c in name):
+                raise InputError(f"{path}: {section}.{name}: a name of letters, digits, '_', '.', '-'")
     for where, value in [*(("base." + k, v) for k, v in study.base.items()),
                          *((f"ladder.{k}", v) for k, vs in study.ladder.items() for v in vs),
-                         *((f"variants.{n}.{k}", v) for n, o in study.variants.items() for k, v in o.items())]:
+                         *((f"variants.{n}.{k}", v) for n, o in study.variants.items() for k, v in o.items()),
+                         *((f"extra.{n}.{k}", v) for n, o in study.extra.items() for k, v in o.items())]:
         if isinstance(value, float) and not math.isfinite(value):
             raise InputError(f"{path}: {where}: must be a finite number (got {value!r})")
     runs = 1
@@ -82,7 +87,7 @@ def load_study(path: str | Path) -> Study:
         if not values:
             raise InputError(f"{path}: ladder.{key}: needs at least one value")
         runs *= len(values)
-    runs *= max(len(study.variants), 1)
+    runs = runs * max(len(study.variants), 1) + len(study.extra)
     if runs > MAX_RUNS:
         raise InputError(f"{path}: ladder: {runs:,} runs, more than {MAX_RUNS:,}")
     # every run's scene must validate before anything runs (a bad value costs a second, not an hour)
@@ -106,7 +111,8 @@ def _yaml(value) -> str:
 
 
 def _combinations(study: Study) -> list[tuple[dict, str]]:
-    """(overrides, run id) of every run: the ladder's product, each point once per variant (innermost)."""
+    """(overrides, run id) of every run: the ladder's product, each point once per variant (innermost), then
+    the ``extra`` runs (an id the ladder already has is the ladder's)."""
     keys = list(study.ladder)
     variants = study.variants or {"": {}}
     runs = []
@@ -115,6 +121,10 @@ def _combinations(study: Study) -> list[tuple[dict, str]]:
         for name, extra in variants.items():
             run_id = "-".join(parts + ([name] if name else [])).replace("/", "_").replace(" ", "")
             runs.append(({**study.base, **dict(zip(keys, values)), **extra}, run_id))
+    taken = {run_id for _, run_id in runs}
+    for run_id, extra in study.extra.items():  # single runs beside the ladder, after it
+        if run_id not in taken:
+            runs.append(({**study.base, **extra}, run_id))
     return runs
 
 
