@@ -130,7 +130,8 @@ class MeshMotion(_MovingMesh):
         boundary = dolfinx.mesh.exterior_facet_indices(mesh.topology)
         outer = dolfinx.fem.locate_dofs_topological(M, tdim - 1, boundary)
         outer = np.setdiff1d(outer, self.solid_dofs).astype(np.int32)
-        self.bcs = [dolfinx.fem.dirichletbc(self.solid_displacement, self.solid_dofs),
+        self._boundary_values = dolfinx.fem.Function(M)  # extend()'s g on the solid, apart from the state
+        self.bcs = [dolfinx.fem.dirichletbc(self._boundary_values, self.solid_dofs),
                     dolfinx.fem.dirichletbc(dolfinx.fem.Function(M), outer)]
         m, v = ufl.TrialFunction(M), ufl.TestFunction(M)
         one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
@@ -197,11 +198,11 @@ class MeshMotion(_MovingMesh):
 
     def extend(self, solid_displacement: np.ndarray) -> np.ndarray:
         """The extension of a total solid displacement (P1 dof array, only the solid entries are read)
-        to the whole mesh (P1 dof array); the mesh is not moved."""
-        s = self.solid_displacement.x.array
-        s[self._solid_entries] = solid_displacement[self._solid_entries]
-        self.solid_displacement.x.scatter_forward()
-        self.A0.mult(compat.petsc_vec(self.solid_displacement), self.b)  # b = −A0 g, g = 0 off the solid
+        to the whole mesh (P1 dof array); neither the mesh nor the motion's state is changed."""
+        g = self._boundary_values
+        g.x.array[self._solid_entries] = solid_displacement[self._solid_entries]
+        g.x.scatter_forward()
+        self.A0.mult(compat.petsc_vec(g), self.b)  # b = −A0 g, g = 0 off the solid
         self.b.scale(-1.0)
         fem_petsc.set_bc(self.b, self.bcs)
         self.ksp.solve(self.b, compat.petsc_vec(self._new))
@@ -217,24 +218,16 @@ class MeshMotion(_MovingMesh):
         s = self.solid_displacement.x.array
         s_star = s[entries] if base is None else base[entries]
         s[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
+        self.solid_displacement.x.scatter_forward()
         self.walls.check(s, t)
         return self._apply(self.extend(s), dt, t)
-
 
     def velocity_of(self, velocity) -> np.ndarray:
         """The mesh velocity (P1 dof array) that the velocity field ``velocity`` gives the mesh: its values
         at the solid's vertices, extended (the extension is linear, so this is the rate of the mesh
-        displacement when the solid's vertices move with ``velocity``). The mesh is not moved, and the
-        motion's state (``solid_displacement``) is kept."""
+        displacement when the solid's vertices move with ``velocity``). The mesh is not moved."""
         self._u_P1.interpolate(velocity)
-        entries = self._solid_entries
-        s = np.zeros_like(self.solid_displacement.x.array)
-        s[entries] = self._u_P1.x.array[entries]
-        kept = self.solid_displacement.x.array.copy()  # extend() writes its solid entries there
-        try:
-            return self.extend(s)
-        finally:
-            self.solid_displacement.x.array[:] = kept
+        return self.extend(self._u_P1.x.array)
 
 
 class WallGap:
