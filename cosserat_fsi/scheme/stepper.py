@@ -154,21 +154,18 @@ class Stepper:
         if self.d_star is not None:
             d, d_prev = state.displacement.x.array, state.displacement_prev.x.array
             self.d_star.x.array[:] = d if alpha == 1.0 else (4.0 * d - d_prev) / 3.0
+        t_new = (state.step_count + 1) * self.dt
         if self.ale:
             with self.timers("mesh_motion"):
-                self._convecting_velocity(alpha, (state.step_count + 1) * self.dt)
+                self._convecting_velocity(alpha, t_new)
         self._matrix(alpha)
-        t_new = (state.step_count + 1) * self.dt
         self.boundary.update(t_new)
         self.problem.update_sources(t_new)
         with self.timers("backtrack"):
             self.histories.update(alpha, state, self.solve_displacement)
         with self.timers("assemble_vector"):
             self._vector()
-        with self.timers("solve"):
-            self.solver.solve(self.b, compat.petsc_vec(self.solution))
-            self.solution.x.scatter_forward()
-        self._check_finite(t_new)
+        self._solve(t_new)
         for _ in range(self.passes if alpha != 1.0 else 0):
             self._correct(alpha, t_new)
         for _ in range(self.picard if alpha != 1.0 else 0):
@@ -187,18 +184,29 @@ class Stepper:
         """Assemble (and have the solver factorise) the matrix when α changed or the mesh moved."""
         if self.A is not None and self._alpha_of_A == alpha and self.motion is None and not self.ale:
             return
+        self.alpha.value = alpha
+        self.solid_dt.value = self.dt / alpha
+        self._reassemble(self.a_form)
+        self._alpha_of_A = alpha
+
+    def _reassemble(self, a_form):
+        """Assemble ``a_form`` into the matrix (created at the first call) and hand it to the solver."""
         with self.timers("assemble_matrix"):
-            self.alpha.value = alpha
-            self.solid_dt.value = self.dt / alpha
             bcs = self.boundary.bcs
             if self.A is None:
-                self.A = fem_petsc.assemble_matrix(self.a_form, bcs=bcs)
+                self.A = fem_petsc.assemble_matrix(a_form, bcs=bcs)
             else:
                 self.A.zeroEntries()
-                fem_petsc.assemble_matrix(self.A, self.a_form, bcs=bcs)
+                fem_petsc.assemble_matrix(self.A, a_form, bcs=bcs)
             self.A.assemble()
             self.solver.set_operator(self.A)
-            self._alpha_of_A = alpha
+
+    def _solve(self, t_new: float):
+        """Solve for the step's solution (``self.b`` assembled); DivergenceError if it is not finite."""
+        with self.timers("solve"):
+            self.solver.solve(self.b, compat.petsc_vec(self.solution))
+            self.solution.x.scatter_forward()
+        self._check_finite(t_new)
 
     def _convecting_velocity(self, alpha: float, t_new: float):
         """``time.convection: ale``: c = u* − w*, u* = u^n (first order) or 2u^n − u^{n−1}, w* the mesh
@@ -225,17 +233,10 @@ class Stepper:
         c.x.array[:] += u_new - self._u_star
         self._u_star = u_new.copy()
         c.x.scatter_forward()
-        with self.timers("assemble_matrix"):
-            self.A.zeroEntries()
-            fem_petsc.assemble_matrix(self.A, self.a_form, bcs=self.boundary.bcs)
-            self.A.assemble()
-            self.solver.set_operator(self.A)
+        self._reassemble(self.a_form)
         with self.timers("assemble_vector"):
             self._vector()
-        with self.timers("solve"):
-            self.solver.solve(self.b, compat.petsc_vec(self.solution))
-            self.solution.x.scatter_forward()
-        self._check_finite(t_new)
+        self._solve(t_new)
 
     def _correct(self, alpha: float, t_new: float):
         """One corrector pass (``time.corrector_passes``): with the solution as the prediction of u^{n+1},
@@ -260,19 +261,12 @@ class Stepper:
         dim = self.problem.mesh.geometry.dim
         d_hat.reshape(-1, dim)[nodes] += dt_a * self.u_predicted.x.array.reshape(-1, dim)[nodes]
         self.d_predicted.x.scatter_forward()
-        with self.timers("assemble_matrix"):
-            self.A.zeroEntries()
-            fem_petsc.assemble_matrix(self.A, self.a_corrector, bcs=self.boundary.bcs)
-            self.A.assemble()
-            self.solver.set_operator(self.A)
+        self._reassemble(self.a_corrector)
         with self.timers("backtrack"):
             self.histories.update(alpha, self.state, self.solve_displacement)
         with self.timers("assemble_vector"):
             self._vector(self.L_corrector, self.a_corrector)
-        with self.timers("solve"):
-            self.solver.solve(self.b, compat.petsc_vec(self.solution))
-            self.solution.x.scatter_forward()
-        self._check_finite(t_new)
+        self._solve(t_new)
 
     def _vector(self, L_form=None, a_form=None):
         b, bcs = self.b, self.boundary.bcs
