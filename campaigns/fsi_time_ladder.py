@@ -49,6 +49,13 @@ LADDERS = {
     "fsi3-L1-ale": [(f"fsi3-L1-ale-dt{dt}", *FSI3_L1, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],
     "cfd3-ale-picard": [(f"cfd3-L1-ale-picard-dt{dt}", *CFD3_L1, {"time.dt": dt, "time.t_end": 10.0})
                         for dt in (0.002,)],  # the shipped CFD3 scene (ale + one Picard pass)
+    # session 14: generalised-α (ρ∞ = 0.5) on the nodal values, convection relative to the mesh
+    "fsi3-seed-ga": [(f"fsi3-seed-ga-dt{dt}", *FSI3_SEED, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
+                                                          "time.t_end": 8.0}) for dt in DTS],
+    "fsi3-L1-ga": [(f"fsi3-L1-ga-dt{dt}", *FSI3_L1, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
+                                                    "time.t_end": 8.0}) for dt in DTS],
+    "cfd3-ga": [(f"cfd3-L1-ga-dt{dt}", *CFD3_L1, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
+                                                  "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
     "cfd3-ale": [(f"cfd3-L1-ale-dt{dt}", *CFD3_L1, {**ALE, "time.scheme": "characteristics2", "time.dt": dt,
                                                     "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
 }

@@ -192,6 +192,14 @@ class Time(_Section):
     degree 4 or 5 the steady CFD2 wake turned noisy at δt = 0.0025; degree 8 (16 points) kept it steady
     and within 0.5 % of the reference.
 
+    ``scheme: generalized_alpha`` (with ``convection: ale``): the generalised-α method of Jansen, Whiting
+    & Hulbert (2000) on the nodal values — second order, one linear solve per step, with the damping of
+    the unresolved modes set by ``rho_infinity`` (ρ∞, default 0.5; the resolved ones are barely damped,
+    unlike BDF2's 4.5 % per period at ωδt = 1/3). ρ∞ = 1 (no damping) is unstable for a solid: the
+    linearised stress leaves a part of the solid's stiffest modes explicit (scheme/stepper.py). For flows:
+    CFD3 at δt = 0.002 +1.8 % with one solve per step; not for FSI: FSI3 diverged at ρ∞ = 0.5 (δt = 0.01
+    and 0.005) and at ρ∞ = 0.2 was less accurate than BDF2 (docs/performance.md, issue 12, session 14).
+
     ``scheme: steady`` solves the steady equations (no time derivative) by Newton's method
     (cosserat_fsi/scheme/steady.py); ``dt`` and ``t_end`` are then not used (one "step" at t = 1).
     ``newton_*``: its iteration limit, relative residual tolerance, and the continuation steps (fractions
@@ -221,7 +229,8 @@ class Time(_Section):
 
     dt: PositiveFloat | None = None
     t_end: PositiveFloat | None = None
-    scheme: Literal["characteristics1", "characteristics2", "steady"] = "characteristics1"
+    scheme: Literal["characteristics1", "characteristics2", "generalized_alpha", "steady"] = "characteristics1"
+    rho_infinity: float | None = Field(default=None, ge=0.0, le=1.0)
     characteristics: Literal["quadrature", "nodes"] = "quadrature"
     quadrature_degree: int = Field(default=8, ge=2, le=12)
     newton_max_iterations: int = Field(default=25, ge=1, le=1000)
@@ -235,6 +244,8 @@ class Time(_Section):
 
     @model_validator(mode="after")
     def _steady_defaults(self):
+        if self.scheme == "generalized_alpha" and self.rho_infinity is None:
+            self.rho_infinity = 0.5
         if self.scheme == "steady":
             self.dt = 1.0 if self.dt is None else self.dt
             self.t_end = self.dt if self.t_end is None else self.t_end
@@ -385,11 +396,18 @@ class Scene(_Section):
         if time.solid_linearisation == "consistent" and time.solve_configuration == "extrapolated":
             raise ValueError("time.solid_linearisation: 'consistent' linearises around the BDF2 base "
                              "configuration; with time.solve_configuration 'extrapolated' use 'seed'")
-        if time.corrector_passes and (time.scheme != "characteristics2"
-                                      or not (self.has_solid or time.convection == "ale")):
+        if time.scheme == "generalized_alpha" and time.convection != "ale":
+            raise ValueError("time.scheme: 'generalized_alpha' needs time.convection 'ale' (got "
+                             f"{time.convection!r})")
+        if time.rho_infinity is not None and time.scheme != "generalized_alpha":
+            raise ValueError("time.rho_infinity: only used with time.scheme 'generalized_alpha' "
+                             f"(got scheme {time.scheme})")
+        if time.corrector_passes and not (
+                (time.scheme == "characteristics2" and (self.has_solid or time.convection == "ale"))
+                or time.scheme == "generalized_alpha"):
             got = f"{time.scheme}{'' if self.has_solid else ', no solid'}"
             raise ValueError("time.corrector_passes: needs time.scheme 'characteristics2' and a solid or "
-                             f"time.convection 'ale' (got scheme {got})")
+                             f"time.convection 'ale', or time.scheme 'generalized_alpha' (got scheme {got})")
         if time.foot != "euler" and time.scheme != "characteristics2":
             raise ValueError(f"time.foot: {time.foot!r} needs time.scheme 'characteristics2' (got {time.scheme})")
         if time.convection == "ale":

@@ -57,7 +57,8 @@ class Simulation:
         self._prescribed_motion = prescribed_motion
         self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact, facet_ids=facet_ids)
         self.motion = self._motion(prescribed_motion)
-        self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion)
+        self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion,
+                           rates=scene.time.scheme == "generalized_alpha")
         self.state.set_initial(self.problem, exact)
         self.stepper = self._stepper()
         # automatic remeshing (solid.mesh_motion.remesh; scheme/remesh.py): the remeshes so far, where their
@@ -172,7 +173,8 @@ class Simulation:
         self.problem = Problem(self.scene, mesh, cell_tags, facet_tags, exact=self.exact,
                                facet_ids=self.problem.facet_ids)
         self.motion = self._motion(self._prescribed_motion)
-        self.state = State(self.problem, SCHEMES[self.scene.time.scheme], self.motion)
+        self.state = State(self.problem, SCHEMES[self.scene.time.scheme], self.motion,
+                           rates=self.scene.time.scheme == "generalized_alpha")
         self.stepper = self._stepper()
 
     def _rereference(self) -> None:

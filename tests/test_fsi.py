@@ -40,11 +40,12 @@ def _wobble(X, t):
     return 0.08 * np.sin(2 * np.pi * t / 0.2)[None] * np.column_stack([bump, -bump * X[:, 0]])
 
 
-@pytest.mark.parametrize("convection", ["characteristics", "ale"])
-def test_free_stream_is_preserved_under_mesh_motion(convection):
+@pytest.mark.parametrize("scheme, convection", [("characteristics1", "characteristics"),
+                                                ("characteristics1", "ale"), ("generalized_alpha", "ale")])
+def test_free_stream_is_preserved_under_mesh_motion(scheme, convection):
     """A uniform flow stays uniform to round-off on a mesh that moves independently of the flow."""
     scene = validate_scene({"geometry": {"name": "square", "level": 1}, "fluid": {"rho": 1.0, "mu": 0.01},
-                            "time": {"dt": 0.01, "t_end": 0.2, "convection": convection}})
+                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": scheme, "convection": convection}})
     sim, _ = _run(scene, exact=Uniform(), prescribed_motion=_wobble)
     u = sim.velocity.x.array.reshape(-1, 2)
     assert sim.motion.displacement.x.array.std() > 0  # the mesh did move
@@ -109,8 +110,9 @@ def test_bdf2_on_a_moving_mesh_is_second_order(convection):
 @pytest.mark.slow
 @pytest.mark.parametrize("options", [{}, {"solid_linearisation": "consistent"},
                                      {"solve_configuration": "extrapolated"}, {"corrector_passes": 1},
-                                     {"convection": "ale"}],
-                         ids=["seed", "consistent", "extrapolated", "corrector", "ale"])
+                                     {"convection": "ale"},
+                                     {"scheme": "generalized_alpha", "convection": "ale"}],
+                         ids=["seed", "consistent", "extrapolated", "corrector", "ale", "generalized_alpha"])
 def test_solid_time_order(options):
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
@@ -241,7 +243,7 @@ def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
 @pytest.mark.mpi
 @pytest.mark.parametrize("scheme, convection", [("characteristics1", "characteristics"),
                                                 ("characteristics2", "characteristics"),
-                                                ("characteristics2", "ale")])
+                                                ("characteristics2", "ale"), ("generalized_alpha", "ale")])
 def test_fsi_serial_equals_parallel(scheme, convection):
     """Tip displacement, forces and energies of a short FSI run: COMM_WORLD (1 or 2 ranks) = COMM_SELF."""
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},

@@ -51,11 +51,15 @@ class TaylorGreen:
         return np.vstack([F * np.sin(x[0]) * np.cos(x[1]), -F * np.cos(x[0]) * np.sin(x[1])])
 
 
+GENERALIZED_ALPHA_TG = [8.8998e-4, 2.2254e-4, 5.6250e-5]  # time.scheme: generalized_alpha, ρ∞ = 0.5
+
+
 @pytest.mark.parametrize("scheme, order, convection", [("characteristics1", 1.0, "characteristics"),
                                                        ("characteristics2", 2.0, "characteristics"),
                                                        ("characteristics1", 1.0, "ale"),
                                                        ("characteristics2", 2.0, "ale"),
-                                                       ("characteristics2", 2.0, "ale-picard")])
+                                                       ("characteristics2", 2.0, "ale-picard"),
+                                                       ("generalized_alpha", 2.0, "ale")])
 def test_time_order_taylor_green(scheme, order, convection):
     """Observed order in δt of both time schemes, with the nonlinear convection through the feet
     (``characteristics``) or in the matrix with the extrapolated velocity (``ale`` on a fixed mesh; BDF2
@@ -77,6 +81,9 @@ def test_time_order_taylor_green(scheme, order, convection):
         errors.append(_l2(sim, sim.velocity - u_exact))
     rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all(np.abs(rates - order) < 0.25), (errors, rates)
+    if scheme == "generalized_alpha":  # ρ∞ = 0.5: measured (rates 2.00, 1.98; 1.4× below BDF2's), to 1 %
+        assert np.allclose(errors, GENERALIZED_ALPHA_TG, rtol=0.01), errors
+        return
     if convection == "ale" and order == 2.0:  # the measured errors (above), to 1 %: Picard changes them < 0.1 %
         assert np.allclose(errors, [1.3057e-3, 3.1204e-4, 7.6533e-5], rtol=0.01), errors
 

@@ -30,6 +30,7 @@ FSI = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid":
        "output": {"every": 3, "checkpoint_every": 8, "progress": False}}
 FSI_BDF2 = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2"}}
 FSI_ALE = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2", "convection": "ale"}}
+FSI_GA = {**FSI, "time": {**FSI["time"], "scheme": "generalized_alpha", "convection": "ale"}}
 
 
 @pytest.fixture
@@ -52,8 +53,8 @@ def _fields(path: Path) -> dict:
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("raw", [ST, FSI, FSI_BDF2, FSI_ALE],
-                         ids=["navier_stokes_bdf2", "fsi_moving_mesh", "fsi_bdf2", "fsi_ale"])
+@pytest.mark.parametrize("raw", [ST, FSI, FSI_BDF2, FSI_ALE, FSI_GA],
+                         ids=["navier_stokes_bdf2", "fsi_moving_mesh", "fsi_bdf2", "fsi_ale", "fsi_generalized_alpha"])
 def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
     comm = MPI.COMM_WORLD
     scene = validate_scene(raw)

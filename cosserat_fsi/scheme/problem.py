@@ -227,20 +227,26 @@ class Problem:
         omega = parts[sp.index("micro_rotation")] if self.model.micro_rotation else None
         return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
 
-    def residual(self, trial, test, *, acceleration, micro_acceleration=None, dx_inertia=None) -> ufl.Form:
+    def residual(self, trial, test, *, acceleration, micro_acceleration=None, dx_inertia=None,
+                 at=None) -> ufl.Form:
         """Seed eq. (31) (fluid part, continuity) + eq. (32) + weak wall conditions, as one residual.
 
         ``trial``/``test``: mixed (Trial)Functions or their splits (see :meth:`split`); ``acceleration``
         (and ``micro_acceleration`` with micro-rotation) the material derivatives of u (and ω) as UFL
-        expressions; ``dx_inertia`` the measure of the inertia terms (default dx). The solid terms are
-        apart (:meth:`solid_residual`): they depend on how the displacement is discretised.
+        expressions; ``dx_inertia`` the measure of the inertia terms (default dx); ``at``: the (u, ω) the
+        viscous, couple and wall terms are evaluated at (generalised-α: u^{n+α_f}), default the trial's;
+        the continuity equation always holds for the trial's u. The solid terms are apart
+        (:meth:`solid_residual`): they depend on how the displacement is discretised.
         """
-        (u, p, omega), (v, q, tau) = self.split(trial), self.split(test)
+        (u_new, p, omega), (v, q, tau) = self.split(trial), self.split(test)
+        u = u_new
+        if at is not None:
+            u, omega = at
         dx = self.dx
         F = fluid.momentum_residual(u, p, v, rho=self.rho, acceleration=acceleration, mu=self.mu,
                                     body_force=self.body_force, dx=dx, viscous_form=self.viscous_form,
                                     dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r)
-        F = F + fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=dx)
+        F = F + fluid.continuity_residual(u_new, p, q, penalty=self.penalty, dx=dx)
         traction = self.traction(v)
         if traction is not None:
             F = F + traction
@@ -256,11 +262,12 @@ class Problem:
                                              ds=ds(tuple(self.facet_tag_values(*walls))), mesh=self.mesh)
         return F
 
-    def solid_residual(self, trial, test, d_star, dt, d_predicted=None) -> ufl.Form:
+    def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None) -> ufl.Form:
         """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28, or
         the consistent linearisation with ``time.solid_linearisation: consistent``), or around
         ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
-        correction when ``solid.volume_correction``."""
+        correction when ``solid.volume_correction``, undone over max(``step``, τ) (``step`` default ``dt``;
+        generalised-α passes δt: its ``dt`` is not the step's)."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
         if d_predicted is not None:
             F = solid.corrector_stress_residual(u, v, d_star, d_predicted, mu_s=self.mu_s, dt=dt,
@@ -271,7 +278,8 @@ class Problem:
             F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
         if self.scene.solid.volume_correction:
             tau = self.scene.solid.volume_correction_time
-            rate_time = ufl.max_value(dt, self.constant(tau)) if tau > 0 else dt
+            step = dt if step is None else step
+            rate_time = ufl.max_value(step, self.constant(tau)) if tau > 0 else step
             F = F + solid.volume_correction_residual(q, d_star, dt=rate_time, dx_solid=self.dx_solid)
         return F
 

@@ -27,10 +27,12 @@ class State:
     (None without micro-rotation), ``displacement``/``displacement_prev`` (d^n, d^{n−1}; None without
     solid), ``mesh_velocity`` (P2, (x^n − x^{n−1})/δt). With BDF2 on a moving mesh (P1 vertex fields, else
     None): ``mesh_displacement_prev`` (D^{n−1}), ``configuration_n`` and ``configuration_nm1`` (the mesh
-    displacements of the configurations u^n and u^{n−1} were computed on). ``t`` and ``step_count``.
+    displacements of the configurations u^n and u^{n−1} were computed on). With ``rates``
+    (generalised-α): ``velocity_rate``, ``micro_rotation_rate`` (u̇^n, ω̇^n of the nodal values) and
+    ``displacement_rate`` (ḋ^n), else None. ``t`` and ``step_count``.
     """
 
-    def __init__(self, problem: Problem, order: int, motion=None):
+    def __init__(self, problem: Problem, order: int, motion=None, rates: bool = False):
         sp, model = problem.space, problem.model
         self.order, self.motion = order, motion
         V = sp.space("velocity")
@@ -47,6 +49,14 @@ class State:
             self.displacement = dolfinx.fem.Function(V, name="displacement")
             self.displacement_prev = dolfinx.fem.Function(V)
         self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
+        # generalised-α (``rates``): the time derivatives u̇^n, ω̇^n of the nodal values and ḋ^n of d
+        self.velocity_rate = self.micro_rotation_rate = self.displacement_rate = None
+        if rates:
+            self.velocity_rate = dolfinx.fem.Function(V)
+            if model.micro_rotation:
+                self.micro_rotation_rate = dolfinx.fem.Function(sp.space("micro_rotation"))
+            if model.solid:
+                self.displacement_rate = dolfinx.fem.Function(V)
         self.mesh_displacement_prev = self.configuration_n = self.configuration_nm1 = None
         if motion is not None and order == 2:
             self.mesh_displacement_prev = dolfinx.fem.Function(motion.M)
@@ -68,6 +78,10 @@ class State:
             fns["d_n"] = self.displacement
             if self.order == 2:
                 fns["d_nm1"] = self.displacement_prev
+        for name, f in (("udot_n", self.velocity_rate), ("omegadot_n", self.micro_rotation_rate),
+                        ("ddot_n", self.displacement_rate)):
+            if f is not None:
+                fns[name] = f
         if self.configuration_n is not None:
             fns.update(mesh_displacement_prev=self.mesh_displacement_prev,
                        mesh_displacement_n=self.configuration_n, mesh_displacement_nm1=self.configuration_nm1)

@@ -14,6 +14,23 @@ solid cells, where the mesh is the material and the nodal BDF2 is already the ma
 linear solve per step as before, no back-tracking; the matrix changes every step (the kept factorisation
 preconditions GMRES), and BDF2 on a moving mesh is solved on the extrapolated configuration, where the
 nodes are at t^{n+1} to O(δt²).
+
+``time.scheme: generalized_alpha`` (with ``ale``; Jansen, Whiting & Hulbert 2000): for FSI at large δt,
+where BDF2's own damping (4.5 % of the amplitude per period at ωδt = 1/3) decides the error. With u̇ the
+time derivative of the nodal values, the step solves
+
+    ρ (u̇^{n+α_m} + ((u* − w*)·∇)u^{n+α_f}) + the viscous, couple and solid stresses at u^{n+α_f}, d^{n+α_f} = f,
+    div u^{n+1} = 0,   u^{n+1} = u^n + δt((1 − γ)u̇^n + γu̇^{n+1}),   ḋ^{n+α_m} = u^{n+α_f} (likewise for d),
+
+x^{n+a} = (1 − a)x^n + a x^{n+1}, on the configuration of t^{n+α_f} (its solid vertices at s^n + α_f δt ḋ^n,
+u* = α_f(2u^n − u^{n−1}) + (1 − α_f)u^n and w* its extension). d^{n+α_f} = d* + k u^{n+1} is linear in
+u^{n+1}: eq. (28) around d* with δt → k = α_f²γδt/α_m. α_m = (3 − ρ∞)/(2(1 + ρ∞)), α_f = 1/(1 + ρ∞),
+γ = ½ + α_m − α_f: second order, and the stiffest modes are damped by ρ∞ per step (ρ∞ = 0 is BDF2 with
+the base X + 2D^n − D^{n−1} of ``ale``). The first step is backward Euler (no u̇^0 needed). ρ∞ = 1 (the
+implicit midpoint rule, no damping) is unstable with a solid: eq. (28) drops the geometric part of the
+stress's change, which the configuration then supplies explicitly, and the solid's stiffest modes (ωδt ≈
+100 on FSI3) grow. Measured on the flag alone at δt = 0.005: the θ-method with θ = ½ and 0.55 blows up
+within 0.6 s, θ = 0.6 holds. The pressure is that of t^{n+α_f}.
 """
 
 from __future__ import annotations
@@ -36,7 +53,17 @@ import dolfinx.fem.petsc as fem_petsc
 import ufl
 from petsc4py import PETSc
 
-SCHEMES = {"characteristics1": 1, "characteristics2": 2, "steady": 1}  # steady: scheme/steady.py
+# the earlier levels the state keeps (generalised-α keeps the rates instead: State(rates=True));
+# steady: scheme/steady.py
+SCHEMES = {"characteristics1": 1, "characteristics2": 2, "generalized_alpha": 1, "steady": 1}
+
+
+def generalized_alpha(rho_infinity: float) -> tuple[float, float, float]:
+    """(α_m, α_f, γ) of the generalised-α method for first-order systems (Jansen, Whiting & Hulbert 2000):
+    second order, amplification ρ∞ of the unresolved modes."""
+    alpha_m = 0.5 * (3.0 - rho_infinity) / (1.0 + rho_infinity)
+    alpha_f = 1.0 / (1.0 + rho_infinity)
+    return alpha_m, alpha_f, 0.5 + alpha_m - alpha_f
 
 
 class Stepper:
@@ -57,6 +84,8 @@ class Stepper:
         self.timers = timers if timers is not None else Timers()
         self.dt = float(scene.time.dt)
         self.order = SCHEMES[scene.time.scheme]
+        self.ga = (generalized_alpha(float(scene.time.rho_infinity)) if scene.time.scheme == "generalized_alpha"
+                   else None)
         mesh = problem.mesh
         self.alpha = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
         self.inv_dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0 / self.dt))
@@ -66,6 +95,14 @@ class Stepper:
         # BDF2 on a moving mesh: the displacement Ω* − X of the configuration the step is solved on
         self.solve_displacement = (dolfinx.fem.Function(motion.M) if motion is not None and self.order == 2
                                    else None)
+        self.step_dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(self.dt))  # generalised-α's volume correction
+        # generalised-α: u^n and ω^n of the step (the state's move on before the observers use the forms)
+        self.u_old = self.omega_old = None
+        self.alpha_f = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))  # the step's α_f
+        if self.ga is not None:
+            self.u_old = dolfinx.fem.Function(state.velocity.function_space)
+            if state.micro_rotation is not None:
+                self.omega_old = dolfinx.fem.Function(state.micro_rotation.function_space)
         # ... and the BDF2 base (4D^n − D^{n−1})/3 the solid vertices move on from (time.solve_configuration)
         # (time.convection: ale always: its nodal values are those of the nodes' places at t^{n+1})
         self.extrapolate = self.solve_displacement is not None and (
@@ -75,7 +112,7 @@ class Stepper:
         self.motion_base = (np.zeros_like(self.solve_displacement.x.array) if self.extrapolate or self.passes
                             else None)
         # time.convection: ale — the convecting velocity c = u* − w* of ((u* − w*)·∇)u, none in solid cells
-        self.ale = scene.time.convection == "ale"
+        self.ale = scene.time.convection == "ale"  # (always with generalised-α)
         self.convecting = self.fluid_cells = None
         if self.ale:
             V = problem.space.space("velocity")
@@ -83,6 +120,7 @@ class Stepper:
             self.fluid_cells = problem.cellwise(1.0, 0.0) if problem.model.solid else None
             if motion is not None:
                 self._w_P1, self._w = dolfinx.fem.Function(motion.M), dolfinx.fem.Function(V)
+                self._step_rate = dolfinx.fem.Function(V)  # generalised-α: (d^{n+1} − d^n)/δt and the like
         # ale: time.corrector_passes re-linearise the convection around the last solution (Picard)
         self.picard = int(scene.time.corrector_passes) if self.ale else 0
         if self.ale:
@@ -99,7 +137,15 @@ class Stepper:
 
     def acceleration(self, u):
         """The material acceleration of u (the step's, with u the solution: residual forces)."""
-        return self._convected(u, Histories.acceleration(u, self.histories.velocity, self.alpha, self.inv_dt))
+        h = self.histories.velocity
+        return self._convected(self._at_alpha_f(u, self.u_old),
+                               Histories.acceleration(u, h, self.alpha, self.inv_dt))
+
+    def _at_alpha_f(self, f, old):
+        """Generalised-α: f^{n+α_f} = α_f f + (1 − α_f) f^n (``old`` holds f^n); other schemes: f."""
+        if self.ga is None:
+            return f
+        return self.alpha_f * f + (1.0 - self.alpha_f) * old
 
     def _convected(self, f, rate):
         """``rate`` + ((u* − w*)·∇)f in fluid cells with ``time.convection: ale`` (the BDF of the nodal
@@ -134,18 +180,23 @@ class Stepper:
         pr, h = self.problem, self.histories
         trial, test = ufl.TrialFunctions(pr.space.W), ufl.TestFunctions(pr.space.W)
         u, _, omega = pr.split(trial)
-        micro = (self._convected(omega, Histories.acceleration(omega, h.micro_rotation, self.alpha, self.inv_dt))
+        omega_f = self._at_alpha_f(omega, self.omega_old) if omega is not None else None
+        micro = (self._convected(omega_f, Histories.acceleration(omega, h.micro_rotation, self.alpha, self.inv_dt))
                  if omega is not None else None)
+        at = (self._at_alpha_f(u, self.u_old), omega_f) if self.ga is not None else None
         F = pr.residual(trial, test, acceleration=self.acceleration(u), micro_acceleration=micro,
-                        dx_inertia=h.dx_inertia)
+                        dx_inertia=h.dx_inertia, at=at)
         if pr.model.solid:
-            F = F + pr.solid_residual(trial, test, self.d_star, self.solid_dt, d_predicted)
+            F = F + pr.solid_residual(trial, test, self.d_star, self.solid_dt, d_predicted,
+                                      step=self.step_dt if self.ga is not None else None)
         return compat.form(ufl.lhs(F)), compat.form(ufl.rhs(F))
 
     # --------------------------------------------------------------------------------- one step
     def advance(self, observe=None) -> None:
         """t^n → t^{n+1}: solve on Ω^n (BDF2 moving: Ω*), update d, then move the mesh to Ω^{n+1}.
         ``observe()`` is called after the solve, while the mesh is still the one solved on."""
+        if self.ga is not None:
+            return self._advance_generalized_alpha(observe)
         state = self.state
         alpha = 1.0 if (self.order == 1 or state.step_count == 0) else 1.5
         if self.solve_displacement is not None:
@@ -179,6 +230,104 @@ class Stepper:
         if self.motion is not None:
             with self.timers("mesh_motion"):
                 self._move_mesh(alpha)
+
+    def _advance_generalized_alpha(self, observe=None) -> None:
+        """t^n → t^{n+1} by generalised-α (module docstring): place the mesh at t^{n+α_f}, solve, update
+        the rates and d, move the mesh to Ω^{n+1}. ``observe()`` as in :meth:`advance`."""
+        state, dt = self.state, self.dt
+        # the first step by backward Euler (α_m = α_f = γ = 1): it needs no u̇^0, whose error would stay
+        # in u as O(δt) (u̇^0 = 0 is exact only from rest); its O(δt²) error is made once
+        alpha_m, alpha_f, gamma = (1.0, 1.0, 1.0) if state.step_count == 0 else self.ga
+        self.alpha_f.value = alpha_f
+        t_f, t_new = state.t + alpha_f * dt, (state.step_count + 1) * dt
+        u_n, u_prev = state.velocity.x.array.copy(), state.velocity_prev.x.array
+        u_pred = u_n if state.step_count == 0 else 2.0 * u_n - u_prev  # u^{n+1} predicted
+        self.u_old.x.array[:] = u_n
+        if self.omega_old is not None:
+            self.omega_old.x.array[:] = state.micro_rotation.x.array
+        ratio = alpha_m / gamma  # u̇^{n+α_m} = ratio (u^{n+1} − u^n)/δt + (1 − ratio) u̇^n
+        for target, now, rate in ((self.histories.velocity, state.velocity, state.velocity_rate),
+                                  (self.histories.micro_rotation, state.micro_rotation, state.micro_rotation_rate)):
+            if target is not None:  # α h = ratio f^n − δt (1 − ratio) ḟ^n, α = ratio
+                target.x.array[:] = ratio * now.x.array - dt * (1.0 - ratio) * rate.x.array
+        self.alpha.value = ratio
+        d_rate = None
+        if self.d_star is not None:  # d^{n+α_f} = d* + k u^{n+1}
+            d_rate = state.displacement_rate.x.array
+            self.d_star.x.array[:] = state.displacement.x.array + alpha_f * dt * (
+                ((1.0 - gamma) - gamma * (1.0 - alpha_m) / alpha_m) * d_rate
+                + (gamma / alpha_m) * (1.0 - alpha_f) * u_n)
+            self.solid_dt.value = alpha_f * alpha_f * gamma * dt / alpha_m
+        with self.timers("mesh_motion"):
+            self._convecting_alpha_f(alpha_f * u_pred + (1.0 - alpha_f) * u_n, alpha_f, t_f)
+        for f in (self.u_old, self.omega_old, self.d_star):
+            if f is not None:
+                f.x.scatter_forward()
+        self._reassemble(self.a_form)
+        self.boundary.update(t_new)
+        self.problem.update_sources(t_f)
+        with self.timers("assemble_vector"):
+            self._vector()
+        self._solve(t_new)
+        for _ in range(self.picard):
+            self._picard(t_new)
+        x, space = self.solution.x.array, self.problem.space
+        for rate, now, name in ((state.velocity_rate, state.velocity, "velocity"),
+                                (state.micro_rotation_rate, state.micro_rotation, "micro_rotation")):
+            if rate is not None:  # u̇^{n+1} = (u^{n+1} − u^n)/(γδt) − (1 − γ)/γ u̇^n
+                rate.x.array[:] = ((x[space.dofs(name)] - now.x.array) / (gamma * dt)
+                                   - (1.0 - gamma) / gamma * rate.x.array)
+        state.shift(self.solution, space)
+        if self.d_star is not None:  # ḋ^{n+1} = (u^{n+α_f} − (1 − α_m) ḋ^n)/α_m on the solid, d^{n+1}
+            dim, nodes = self.problem.mesh.geometry.dim, self.problem.solid_velocity_dofs
+            state.displacement_prev.x.array[:] = state.displacement.x.array
+            d, r = state.displacement.x.array.reshape(-1, dim), d_rate.reshape(-1, dim)
+            u_new, u_old = state.velocity.x.array.reshape(-1, dim)[nodes], u_n.reshape(-1, dim)[nodes]
+            u_f = alpha_f * u_new + (1.0 - alpha_f) * u_old
+            r_new = (u_f - (1.0 - alpha_m) * r[nodes]) / alpha_m
+            d[nodes] += dt * ((1.0 - gamma) * r[nodes] + gamma * r_new)
+            r[nodes] = r_new
+            state.displacement.x.scatter_forward()
+            state.displacement_rate.x.scatter_forward()
+        state.t, state.step_count = t_new, state.step_count + 1
+        if observe is not None:
+            observe()
+        if self.motion is not None:
+            with self.timers("mesh_motion"):
+                m, step = self.motion, self._step_rate
+                if self.d_star is not None:  # the solid vertices move as d: s^{n+1} = s^n + (d^{n+1} − d^n)
+                    step.x.array[:] = (state.displacement.x.array - state.displacement_prev.x.array) / dt
+                w_P1 = m.move(step, dt, state.t)
+                state.mesh_velocity.interpolate(w_P1)
+                self.histories.mesh_moved(rebuild=False)
+
+    def _convecting_alpha_f(self, u_f, alpha_f: float, t_f: float):
+        """Generalised-α: c = u* − w*, u* = ``u_f`` the velocity at t^{n+α_f} predicted, w* the mesh
+        velocity it gives (its extension from the solid's vertices; a prescribed motion's rate at
+        t^{n+α_f}); the mesh goes to the configuration of t^{n+α_f}: the solid vertices at s^n + α_f δt ḋ^n,
+        extended (a prescribed motion: its displacement at t^{n+α_f}). With the last rate ḋ^n, not an
+        extrapolation of u: the configuration carries the part of the stress's change that eq. (28) leaves
+        explicit, and an extrapolation (2u^n − u^{n−1}) amplifies the solid's fast modes there: with it
+        FSI3 diverged at δt = 0.005 even at ρ∞ = 0, which is then BDF2 (whose base X + 2D^n − D^{n−1} is
+        this configuration)."""
+        c, state, m = self.convecting, self.state, self.motion
+        c.x.array[:] = u_f
+        self._u_star = c.x.array.copy()
+        if m is not None:
+            if isinstance(m, PrescribedMotion):
+                self._w_P1.x.array[:] = m.velocity_of(c, t_f)
+                m.place(np.asarray(m.motion(m._X0_dof, t_f), dtype=float).ravel(), state.t)
+            else:
+                self._w_P1.x.array[:] = m.velocity_of(c)
+                step = self._step_rate
+                step.x.array[:] = alpha_f * self.dt * state.displacement_rate.x.array
+                m._u_P1.interpolate(step)
+                s = m.solid_displacement.x.array + m._u_P1.x.array
+                m.place(m.extend(s), state.t)
+            self.histories.mesh_moved(rebuild=False)
+            self._w.interpolate(self._w_P1)
+            c.x.array[:] -= self._w.x.array
+        c.x.scatter_forward()
 
     def _matrix(self, alpha: float):
         """Assemble (and have the solver factorise) the matrix when α changed or the mesh moved."""
@@ -230,6 +379,9 @@ class Stepper:
         mesh, its velocity and the histories stay), and the step is solved again."""
         c = self.convecting
         u_new = np.ravel(self.solution.x.array[self.problem.space.dofs("velocity")])
+        if self.ga is not None:  # generalised-α convects with u^{n+α_f}
+            a_f = float(self.alpha_f.value)
+            u_new = a_f * u_new + (1.0 - a_f) * self.state.velocity.x.array
         c.x.array[:] += u_new - self._u_star
         self._u_star = u_new.copy()
         c.x.scatter_forward()
