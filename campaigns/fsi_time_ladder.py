@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from cosserat_fsi.analysis import periodic_analysis
+from cosserat_fsi.io import read_timeseries
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = {"uy_A": (0.03438, 5.3), "lift": (437.81, 4.3956)}
@@ -102,11 +103,9 @@ def run(case_id: str, config: str, base: dict, extra: dict, runs: Path) -> Path:
 
 def analyse(out: Path) -> dict:
     """Amplitude/frequency of the last period and of the period ending 1 s before the end."""
-    with open(out / "timeseries.csv") as f:
-        names = f.readline().strip().split(",")
-    data = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
-    name = "uy_A" if "uy_A" in names else "lift"
-    t, y = data[:, 0], data[:, names.index(name)]
+    series = read_timeseries(out / "timeseries.csv")
+    name = "uy_A" if "uy_A" in series else "lift"
+    t, y = series["t"], series[name]
     ref_a, ref_f = REFERENCE[name]
     row = {"run": out.name, "observable": name, "t_end": float(t[-1]), "dt": float(t[-1] - t[-2])}
     for key, cut in (("", t[-1]), ("_1s_earlier", t[-1] - 1.0)):
@@ -130,10 +129,8 @@ def analyse(out: Path) -> dict:
 def averaged(out: Path, seconds: float = 2.0) -> str:
     """uy(A) over the last ``seconds``: (mean of the maxima − mean of the minima)/2 and the frequency of the
     maxima, with the range of the maxima (a modulation the last period alone does not show)."""
-    with open(out / "timeseries.csv") as f:
-        names = f.readline().strip().split(",")
-    data = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
-    t, y = data[:, 0], data[:, names.index("uy_A")]
+    series = read_timeseries(out / "timeseries.csv")
+    t, y = series["t"], series["uy_A"]
     inner = np.arange(1, len(y) - 1)
     peaks = inner[(y[1:-1] > y[:-2]) & (y[1:-1] > y[2:]) & (t[1:-1] > t[-1] - seconds)]
     troughs = inner[(y[1:-1] < y[:-2]) & (y[1:-1] < y[2:]) & (t[1:-1] > t[-1] - seconds)]
@@ -272,9 +269,9 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
     if abs(scene.time.dt - dt_old) > 1e-12 * dt_old:
         rescale_history(sim, dt_old)
     sim.stepper.restored()
-    with open(run_dir / "timeseries.csv") as f:
-        header = f.readline().strip().split(",")
-    old = np.loadtxt(run_dir / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
+    series = read_timeseries(run_dir / "timeseries.csv")
+    header = list(series)
+    old = np.column_stack(list(series.values()))
     old = old[old[:, 0] <= sim.t + 1e-9]
     rows, observing = [], [0.0]
 

@@ -57,8 +57,7 @@ class Simulation:
         self._prescribed_motion = prescribed_motion
         self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact, facet_ids=facet_ids)
         self.motion = self._motion(prescribed_motion)
-        self.state = State(self.problem, SCHEMES[scene.time.scheme], self.motion,
-                           rates=scene.time.scheme == "generalized_alpha")
+        self.state = self._new_state()
         self.state.set_initial(self.problem, exact)
         self.stepper = self._stepper()
         # automatic remeshing (solid.mesh_motion.remesh; scheme/remesh.py): the remeshes so far, where their
@@ -67,6 +66,11 @@ class Simulation:
         self.mesh_file: Path | None = None  # the .msh of the current mesh when it is a remeshed one
         self.remesh_folder: Path | None = None
         self.on_remesh: list[Callable[[Simulation, dict], None]] = []
+
+    def _new_state(self) -> State:
+        """A State for the scene's scheme on the current problem and mesh motion (not set)."""
+        scheme = self.scene.time.scheme
+        return State(self.problem, SCHEMES[scheme], self.motion, rates=scheme == "generalized_alpha")
 
     def _stepper(self):
         """The scheme: characteristics (first order or BDF2), or a steady solver."""
@@ -173,8 +177,7 @@ class Simulation:
         self.problem = Problem(self.scene, mesh, cell_tags, facet_tags, exact=self.exact,
                                facet_ids=self.problem.facet_ids)
         self.motion = self._motion(self._prescribed_motion)
-        self.state = State(self.problem, SCHEMES[self.scene.time.scheme], self.motion,
-                           rates=self.scene.time.scheme == "generalized_alpha")
+        self.state = self._new_state()
         self.stepper = self._stepper()
 
     def _rereference(self) -> None:

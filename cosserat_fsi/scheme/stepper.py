@@ -259,7 +259,8 @@ class Stepper:
                 + (gamma / alpha_m) * (1.0 - alpha_f) * u_n)
             self.solid_dt.value = alpha_f * alpha_f * gamma * dt / alpha_m
         with self.timers("mesh_motion"):
-            self._convecting_alpha_f(alpha_f * u_pred + (1.0 - alpha_f) * u_n, alpha_f, t_f)
+            self._set_convecting(alpha_f * u_pred + (1.0 - alpha_f) * u_n, t_f)
+            self._to_alpha_f_configuration(alpha_f, t_f)
         for f in (self.u_old, self.omega_old, self.d_star):
             if f is not None:
                 f.x.scatter_forward()
@@ -301,33 +302,24 @@ class Stepper:
                 state.mesh_velocity.interpolate(w_P1)
                 self.histories.mesh_moved(rebuild=False)
 
-    def _convecting_alpha_f(self, u_f, alpha_f: float, t_f: float):
-        """Generalised-α: c = u* − w*, u* = ``u_f`` the velocity at t^{n+α_f} predicted, w* the mesh
-        velocity it gives (its extension from the solid's vertices; a prescribed motion's rate at
-        t^{n+α_f}); the mesh goes to the configuration of t^{n+α_f}: the solid vertices at s^n + α_f δt ḋ^n,
-        extended (a prescribed motion: its displacement at t^{n+α_f}). With the last rate ḋ^n, not an
-        extrapolation of u: the configuration carries the part of the stress's change that eq. (28) leaves
-        explicit, and an extrapolation (2u^n − u^{n−1}) amplifies the solid's fast modes there: with it
-        FSI3 diverged at δt = 0.005 even at ρ∞ = 0, which is then BDF2 (whose base X + 2D^n − D^{n−1} is
-        this configuration)."""
-        c, state, m = self.convecting, self.state, self.motion
-        c.x.array[:] = u_f
-        self._u_star = c.x.array.copy()
-        if m is not None:
-            if isinstance(m, PrescribedMotion):
-                self._w_P1.x.array[:] = m.velocity_of(c, t_f)
-                m.place(np.asarray(m.motion(m._X0_dof, t_f), dtype=float).ravel(), state.t)
-            else:
-                self._w_P1.x.array[:] = m.velocity_of(c)
-                step = self._step_rate
-                step.x.array[:] = alpha_f * self.dt * state.displacement_rate.x.array
-                m._u_P1.interpolate(step)
-                s = m.solid_displacement.x.array + m._u_P1.x.array
-                m.place(m.extend(s), state.t)
-            self.histories.mesh_moved(rebuild=False)
-            self._w.interpolate(self._w_P1)
-            c.x.array[:] -= self._w.x.array
-        c.x.scatter_forward()
+    def _to_alpha_f_configuration(self, alpha_f: float, t_f: float):
+        """Generalised-α: the mesh goes to the configuration of t^{n+α_f}: the solid vertices at
+        s^n + α_f δt ḋ^n, extended (a prescribed motion: its displacement at t^{n+α_f}). With the last rate
+        ḋ^n, not an extrapolation of u: the configuration carries the part of the stress's change that
+        eq. (28) leaves explicit, and an extrapolation (2u^n − u^{n−1}) amplifies the solid's fast modes
+        there: with it FSI3 diverged at δt = 0.005 even at ρ∞ = 0, which is then BDF2 (whose base
+        X + 2D^n − D^{n−1} is this configuration)."""
+        m, state = self.motion, self.state
+        if m is None:
+            return
+        if isinstance(m, PrescribedMotion):
+            m.place(np.asarray(m.motion(m._X0_dof, t_f), dtype=float).ravel(), state.t)
+        else:
+            step = self._step_rate
+            step.x.array[:] = alpha_f * self.dt * state.displacement_rate.x.array
+            m._u_P1.interpolate(step)
+            m.place(m.extend(m.solid_displacement.x.array + m._u_P1.x.array), state.t)
+        self.histories.mesh_moved(rebuild=False)
 
     def _matrix(self, alpha: float):
         """Assemble (and have the solver factorise) the matrix when α changed or the mesh moved."""
@@ -358,16 +350,20 @@ class Stepper:
         self._check_finite(t_new)
 
     def _convecting_velocity(self, alpha: float, t_new: float):
-        """``time.convection: ale``: c = u* − w*, u* = u^n (first order) or 2u^n − u^{n−1}, w* the mesh
-        velocity the step's u* gives: the extension of u* from the solid's vertices (the solid vertices
-        move with the velocity and the extension is linear, so the mesh velocity of t^{n+1} is the
-        extension of u^{n+1}; u* makes it O(δt²)); a prescribed motion's, its rate at t^{n+1}."""
-        c, state, m = self.convecting, self.state, self.motion
-        u, u_prev = state.velocity.x.array, state.velocity_prev.x.array
-        c.x.array[:] = u if alpha == 1.0 else 2.0 * u - u_prev
+        """``time.convection: ale``: the convecting velocity (:meth:`_set_convecting`) with u* = u^n (first
+        order) or 2u^n − u^{n−1} at t^{n+1}."""
+        u, u_prev = self.state.velocity.x.array, self.state.velocity_prev.x.array
+        self._set_convecting(u if alpha == 1.0 else 2.0 * u - u_prev, t_new)
+
+    def _set_convecting(self, u_star: np.ndarray, t: float):
+        """c = u* − w*, w* the mesh velocity u* gives: the extension of u* from the solid's vertices (the
+        solid vertices move with the velocity and the extension is linear, so the mesh velocity at t is the
+        extension of u(t); an extrapolated u* makes it O(δt²)); a prescribed motion's, its rate at t."""
+        c, m = self.convecting, self.motion
+        c.x.array[:] = u_star
         self._u_star = c.x.array.copy()
         if m is not None:
-            self._w_P1.x.array[:] = (m.velocity_of(c, t_new) if isinstance(m, PrescribedMotion)
+            self._w_P1.x.array[:] = (m.velocity_of(c, t) if isinstance(m, PrescribedMotion)
                                      else m.velocity_of(c))
             self._w.interpolate(self._w_P1)
             c.x.array[:] -= self._w.x.array
