@@ -91,3 +91,17 @@ def test_bad_variant_exits_2(run_cli, tmp_path, repo_root):
                              "ladder: {time.dt: [0.1]}\nvariants: {a: {time.scheme: nope}}\n")
     result = run_cli("study", study, "--out", tmp_path / "docs")
     assert result.returncode == 2 and "time.scheme" in result.stderr and "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("section", ["variants", "extra"])
+def test_bad_run_name_is_one_line_naming_it(tmp_path, repo_root, section):
+    """A variant's or an extra run's name becomes a folder name: only letters, digits, '_', '.', '-'."""
+    from cosserat_fsi.app.study import load_study
+    from cosserat_fsi.errors import InputError
+
+    path = _study(tmp_path, f"name: v\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D]\n"
+                            f"ladder: {{time.dt: [0.1]}}\n{section}: {{'../x': {{time.dt: 0.05}}}}\n")
+    with pytest.raises(InputError) as info:
+        load_study(path)
+    message = str(info.value)
+    assert "\n" not in message and f"{section}.../x: a name of letters, digits" in message, message
