@@ -197,8 +197,9 @@ class Time(_Section):
     the unresolved modes set by ``rho_infinity`` (ρ∞, default 0.5; the resolved ones are barely damped,
     unlike BDF2's 4.5 % per period at ωδt = 1/3). ρ∞ = 1 (no damping) is unstable for a solid: the
     linearised stress leaves a part of the solid's stiffest modes explicit (scheme/stepper.py). For flows:
-    CFD3 at δt = 0.002 +1.8 % with one solve per step; not for FSI: FSI3 diverged at ρ∞ = 0.5 (δt = 0.01
-    and 0.005) and at ρ∞ = 0.2 was less accurate than BDF2 (docs/performance.md, issue 12, session 14).
+    CFD3 at δt = 0.002 +1.8 % with one solve per step. For FSI with ``corrector_passes: 1`` (without it
+    FSI3 diverges at ρ∞ = 0.5): FSI3 at δt = 0.01, where BDF2 loses half the amplitude
+    (docs/performance.md, issue 12, session 15).
 
     ``scheme: steady`` solves the steady equations (no time derivative) by Newton's method
     (cosserat_fsi/scheme/steady.py); ``dt`` and ``t_end`` are then not used (one "step" at t = 1).
@@ -215,7 +216,10 @@ class Time(_Section):
     ``corrector_passes`` (BDF2 with a solid): after the solve, move the mesh to the predicted Ω^{n+1},
     back-track again from there, linearise the solid stress around the predicted d^{n+1} and solve again
     (the kept factorisation preconditions it); 0 = one solve per step. With ``convection: ale``: re-solve
-    with the convection linearised around the last solution instead (Picard), on any BDF2 scene.
+    with the convection linearised around the last solution instead (Picard), on any BDF2 scene. With
+    ``scheme: generalized_alpha`` and a moving solid: re-place the mesh at the predicted t^{n+α_f}, linearise
+    the solid stress around the predicted d^{n+α_f} and the convection around the predicted u^{n+α_f}, and
+    solve again (without a solid: Picard as with BDF2).
     ``foot`` (BDF2): the feet of the characteristics as straight lines x − δt u*, x − 2δt u* (``euler``)
     or by a midpoint (RK2) step with the velocity at the middle of each interval (``midpoint``:
     scheme/histories.py ``bdf2_feet``; three more point evaluations per point).

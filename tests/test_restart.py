@@ -31,6 +31,7 @@ FSI = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid":
 FSI_BDF2 = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2"}}
 FSI_ALE = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2", "convection": "ale"}}
 FSI_GA = {**FSI, "time": {**FSI["time"], "scheme": "generalized_alpha", "convection": "ale"}}
+FSI_GA_CORRECTOR = {**FSI, "time": {**FSI_GA["time"], "corrector_passes": 1}}
 
 
 @pytest.fixture
@@ -53,8 +54,9 @@ def _fields(path: Path) -> dict:
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("raw", [ST, FSI, FSI_BDF2, FSI_ALE, FSI_GA],
-                         ids=["navier_stokes_bdf2", "fsi_moving_mesh", "fsi_bdf2", "fsi_ale", "fsi_generalized_alpha"])
+@pytest.mark.parametrize("raw", [ST, FSI, FSI_BDF2, FSI_ALE, FSI_GA, FSI_GA_CORRECTOR],
+                         ids=["navier_stokes_bdf2", "fsi_moving_mesh", "fsi_bdf2", "fsi_ale", "fsi_generalized_alpha",
+                              "fsi_generalized_alpha_corrector"])
 def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
     comm = MPI.COMM_WORLD
     scene = validate_scene(raw)

@@ -184,6 +184,13 @@ def _coef(values, d, b):
 
 
 @_jit
+def _combine2(a, b):
+    """2a_k − b_k for the six coefficients (numpy's 2.0 * a − b, element by element)."""
+    return (2.0 * a[0] - b[0], 2.0 * a[1] - b[1], 2.0 * a[2] - b[2], 2.0 * a[3] - b[3], 2.0 * a[4] - b[4],
+            2.0 * a[5] - b[5])
+
+
+@_jit
 def _sum6(p, a):
     """Σ_k p_k a_k in k order from 0.0: ``_combine`` with the coefficients at hand."""
     return (((((0.0 + p[0] * a[0]) + p[1] * a[1]) + p[2] * a[2]) + p[3] * a[3]) + p[4] * a[4]) + p[5] * a[5]
@@ -236,8 +243,9 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
     ``midpoint``: the feet by the two-stage (midpoint) rule instead of the straight lines (histories.py
     ``bdf2_feet``): X¹ = x − δt (3/2 u^n − ½ u^{n−1})(x − ½δt u*), X² = x − 2δt u^n(x − δt u*), the
     midpoint velocities located by walks in ``loc_n`` / ``loc_nm1`` like the feet.
-    Returns (status, u*): status 0 = done, 1 = a foot not reached by a walk (u* valid), 2 = x not
-    reached in an earlier configuration (moving mesh): the caller does those on the general path."""
+    On a fixed mesh u* is Σ_k φ_k (2c^n_k − c^{n−1}_k), as histories.py's numpy path computes it.
+    Returns (status, u*): status 0 = done, 1 = a foot not reached by a walk (u* set there only), 2 = x
+    not reached in an earlier configuration (moving mesh): the caller does those on the general path."""
     n = x.shape[0]
     status = np.zeros(n, dtype=np.int8)
     u_star = np.empty((n, 2))
@@ -252,6 +260,8 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
         b = (_coef(u_nm1, d, 0), _coef(u_nm1, d, 1))
         e = _dofs6(dofs_w, c, 1)
         wa, wb = _coef(w_n, e, 0), _coef(w_nm1, e, 0)
+        if not moving:  # u* = 2u^n − u^{n−1} combined coefficient by coefficient, then summed once
+            sa = (_combine2(a[0], b[0]), _combine2(a[1], b[1]))
         for q in range(nq):
             i = c * nq + q
             px, py = x[i, 0], x[i, 1]
@@ -265,10 +275,10 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
                 um0, um1 = _vector_at(_basis_l(m0, m1, m2), cb, c, b, u_nm1, dofs_u)
             else:
                 p = (phi[q, 0], phi[q, 1], phi[q, 2], phi[q, 3], phi[q, 4], phi[q, 5])
-                un0, un1 = _sum6(p, a[0]), _sum6(p, a[1])
-                um0, um1 = _sum6(p, b[0]), _sum6(p, b[1])
-            s0, s1 = 2.0 * un0 - um0, 2.0 * un1 - um1
-            u_star[i, 0], u_star[i, 1] = s0, s1
+            if moving:
+                s0, s1 = 2.0 * un0 - um0, 2.0 * un1 - um1
+            else:
+                s0, s1 = _sum6(p, sa[0]), _sum6(p, sa[1])
             if midpoint:  # velocities at the midpoints of the two trajectories
                 ma, l0, l1, l2 = _walk_one(px - half * s0, py - half * s1, c, x0a, Ja, neighbours, tol, big,
                                            max_steps)
@@ -278,6 +288,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
                                            max_steps)
                 if ma < 0 or mb < 0 or mc < 0:
                     status[i] = 1
+                    u_star[i, 0], u_star[i, 1] = s0, s1
                     continue
                 ha0, ha1 = _vector_at(_basis_l(l0, l1, l2), ma, c, a, u_n, dofs_u)
                 hb0, hb1 = _vector_at(_basis_l(m0, m1, m2), mb, c, b, u_nm1, dofs_u)
@@ -291,6 +302,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
             c2, m0, m1, m2 = _walk_one(f2x, f2y, c, x0b, Jb, neighbours, tol, big, max_steps)
             if c1 < 0 or c2 < 0:
                 status[i] = 1
+                u_star[i, 0], u_star[i, 1] = s0, s1
                 continue
             p1, p2 = _basis_l(l0, l1, l2), _basis_l(m0, m1, m2)
             v10, v11 = _vector_at(p1, c1, c, a, u_n, dofs_u)

@@ -112,12 +112,12 @@ class Histories:
 
             def at_x(f):
                 return chars.nodal(f)
-        u_x = at_x(state.velocity)
         if alpha == 1.0:
+            u_x = at_x(state.velocity)
             w_x = at_x(state.mesh_velocity) if self.moving else 0.0
             return self._at_feet(x, x - dt * _pad(u_x - w_x), fns_n, cells)
-        if not self.moving:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}
-            u_star = _pad(2.0 * u_x - at_x(state.velocity_prev))
+        if not self.moving:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1} (coefficientwise)
+            u_star = _pad(at_x(self._extrapolated(state)))
             loc = self.chars.locator
             feet1, feet2 = self.bdf2_feet(state, x, u_star, (loc, x), (loc, x), cells)
             vals1 = self._at_feet(x, feet1, fns_n, cells)
@@ -209,6 +209,15 @@ class Histories:
         for f, dofs, v1, v2 in zip(targets, qdofs, vals1, vals2):
             bs = f.function_space.dofmap.index_map_bs
             f.x.array.reshape(-1, bs)[dofs[rest]] = 2.0 * v1 - 0.5 * v2
+
+    def _extrapolated(self, state: State):
+        """u* = 2u^n − u^{n−1} as a P2 function (coefficient by coefficient; the compiled BDF2 pass
+        combines the coefficients the same way)."""
+        u_star = self.__dict__.get("_u_star")
+        if u_star is None:
+            u_star = self._u_star = dolfinx.fem.Function(state.velocity.function_space)
+        u_star.x.array[:] = 2.0 * state.velocity.x.array - state.velocity_prev.x.array
+        return u_star
 
     def _quadrature_dofs(self, f) -> np.ndarray:
         """The dof of f's quadrature space at each quadrature point (cell-major, as quadrature_nodes)."""

@@ -228,25 +228,25 @@ class Problem:
         return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
 
     def residual(self, trial, test, *, acceleration, micro_acceleration=None, dx_inertia=None,
-                 at=None) -> ufl.Form:
+                 at=None, continuity=None) -> ufl.Form:
         """Seed eq. (31) (fluid part, continuity) + eq. (32) + weak wall conditions, as one residual.
 
         ``trial``/``test``: mixed (Trial)Functions or their splits (see :meth:`split`); ``acceleration``
         (and ``micro_acceleration`` with micro-rotation) the material derivatives of u (and ω) as UFL
         expressions; ``dx_inertia`` the measure of the inertia terms (default dx); ``at``: the (u, ω) the
         viscous, couple and wall terms are evaluated at (generalised-α: u^{n+α_f}), default the trial's;
-        the continuity equation always holds for the trial's u. The solid terms are apart
+        the continuity equation holds for ``continuity`` (default: the trial's u). The solid terms are apart
         (:meth:`solid_residual`): they depend on how the displacement is discretised.
         """
-        (u_new, p, omega), (v, q, tau) = self.split(trial), self.split(test)
-        u = u_new
+        (u, p, omega), (v, q, tau) = self.split(trial), self.split(test)
+        u_continuity = u if continuity is None else continuity
         if at is not None:
             u, omega = at
         dx = self.dx
         F = fluid.momentum_residual(u, p, v, rho=self.rho, acceleration=acceleration, mu=self.mu,
                                     body_force=self.body_force, dx=dx, viscous_form=self.viscous_form,
                                     dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r)
-        F = F + fluid.continuity_residual(u_new, p, q, penalty=self.penalty, dx=dx)
+        F = F + fluid.continuity_residual(u_continuity, p, q, penalty=self.penalty, dx=dx)
         traction = self.traction(v)
         if traction is not None:
             F = F + traction
