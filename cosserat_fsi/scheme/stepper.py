@@ -333,11 +333,17 @@ class Stepper:
             return
         if isinstance(m, PrescribedMotion):
             m.place(np.asarray(m.motion(m._X0_dof, t_f), dtype=float).ravel(), state.t)
+            self.histories.mesh_moved(rebuild=False)
         else:
-            step = self._step_rate
-            step.x.array[:] = alpha_f * self.dt * state.displacement_rate.x.array
-            m._u_P1.interpolate(step)
-            m.place(m.extend(m.solid_displacement.x.array + m._u_P1.x.array), state.t)
+            self._place_solid_moved_by(alpha_f * self.dt * state.displacement_rate.x.array)
+
+    def _place_solid_moved_by(self, increment: np.ndarray):
+        """Generalised-α: place the mesh with its solid vertices at s^n + P1(``increment``) (a P2 velocity-
+        space array; only its solid vertices' values count), the rest by the extension."""
+        m, step = self.motion, self._step_rate
+        step.x.array[:] = increment
+        m._u_P1.interpolate(step)
+        m.place(m.extend(m.solid_displacement.x.array + m._u_P1.x.array), self.state.t)
         self.histories.mesh_moved(rebuild=False)
 
     def _correct_generalized_alpha(self, alpha_f: float, t_f: float, t_new: float):
@@ -347,7 +353,7 @@ class Stepper:
         the mesh velocity it gives, the solid stress linearised around d^{n+α_f} (one Newton step of
         S(d) = Dd − GᵀG, ``solid.corrector_stress_residual``), solved again (kept factorisation as the
         preconditioner). The converged limit is generalised-α implicit in the geometry and the stress."""
-        state, space, m = self.state, self.problem.space, self.motion
+        state, space = self.state, self.problem.space
         dim, nodes = self.problem.mesh.geometry.dim, self.problem.solid_velocity_dofs
         u_new = np.ravel(self.solution.x.array[space.dofs("velocity")])
         d_hat = self.d_predicted.x.array
@@ -355,14 +361,8 @@ class Stepper:
         d_hat.reshape(-1, dim)[nodes] += float(self.solid_dt.value) * u_new.reshape(-1, dim)[nodes]
         self.d_predicted.x.scatter_forward()
         with self.timers("mesh_motion"):
-            step = self._step_rate
-            step.x.array[:] = d_hat - state.displacement.x.array
-            m._u_P1.interpolate(step)
-            s = m.solid_displacement.x.array.copy()
-            s[m._solid_entries] += m._u_P1.x.array[m._solid_entries]
-            m.place(m.extend(s), state.t)
+            self._place_solid_moved_by(d_hat - state.displacement.x.array)
             self._set_convecting(alpha_f * u_new + (1.0 - alpha_f) * self.u_old.x.array, t_f)
-            self.histories.mesh_moved(rebuild=False)
         self._reassemble(self.a_corrector)
         with self.timers("assemble_vector"):
             self._vector(self.L_corrector, self.a_corrector)
