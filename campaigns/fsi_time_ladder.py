@@ -59,6 +59,13 @@ LADDERS = {
                                                   "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
     "cfd3-ale": [(f"cfd3-L1-ale-dt{dt}", *CFD3_L1, {**ALE, "time.scheme": "characteristics2", "time.dt": dt,
                                                     "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
+    # sessions 15–16: generalised-α with corrector passes (the mesh and the solid stress re-placed at the
+    # predicted t^{n+α_f}; session 16: the solid's continuity pulled back from Ω^{n+1})
+    **{f"fsi3-{mesh}-ga-c{passes}": [(f"{mesh}-c{passes}-dt{dt}", "configs/turek_hron_fsi3.yaml",
+                                      {**ALE, "geometry.level": level, "time.scheme": "generalized_alpha",
+                                       "time.corrector_passes": passes, "time.dt": dt, "time.t_end": 8.0})
+                                     for dt in DTS]
+       for mesh, level in (("seed", "seed"), ("L1", 1)) for passes in (1, 2)},
 }
 
 

@@ -126,9 +126,10 @@ def test_bdf2_on_a_moving_mesh_is_second_order(convection):
                                      {"solve_configuration": "extrapolated"}, {"corrector_passes": 1},
                                      {"convection": "ale"},
                                      {"scheme": "generalized_alpha", "convection": "ale"},
-                                     {"scheme": "generalized_alpha", "convection": "ale", "corrector_passes": 1}],
+                                     {"scheme": "generalized_alpha", "convection": "ale", "corrector_passes": 1},
+                                     {"scheme": "generalized_alpha", "convection": "ale", "corrector_passes": 2}],
                          ids=["seed", "consistent", "extrapolated", "corrector", "ale", "generalized_alpha",
-                              "generalized_alpha_corrector"])
+                              "generalized_alpha_corrector", "generalized_alpha_corrector2"])
 def test_solid_time_order(options):
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
@@ -260,7 +261,8 @@ def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
 @pytest.mark.parametrize("scheme, convection, passes", [("characteristics1", "characteristics", 0),
                                                         ("characteristics2", "characteristics", 0),
                                                         ("characteristics2", "ale", 0), ("generalized_alpha", "ale", 0),
-                                                        ("generalized_alpha", "ale", 1)])
+                                                        ("generalized_alpha", "ale", 1),
+                                                        ("generalized_alpha", "ale", 2)])
 def test_fsi_serial_equals_parallel(scheme, convection, passes):
     """Tip displacement, forces and energies of a short FSI run: COMM_WORLD (1 or 2 ranks) = COMM_SELF."""
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},

@@ -49,9 +49,10 @@ def momentum_residual(u, p, v, *, rho, acceleration, mu, body_force, dx, viscous
             - ufl.inner(body_force, v) * dx)
 
 
-def continuity_residual(u, p, q, *, penalty, dx) -> ufl.Form:
-    """The continuity part of seed eq. (31), tested with p̃ = ``q``: ∫ −p̃ div u − ζ p p̃."""
-    return (-q * ufl.div(u) - penalty * p * q) * dx
+def continuity_residual(u, p, q, *, penalty, dx, divergence=None) -> ufl.Form:
+    """The continuity part of seed eq. (31), tested with p̃ = ``q``: ∫ −p̃ div u − ζ p p̃ (``divergence``:
+    the expression that stands for div u, e.g. pulled back from another configuration)."""
+    return (-q * (ufl.div(u) if divergence is None else divergence) - penalty * p * q) * dx
 
 
 def micro_rotation_residual(u, omega, tau, *, rho, inertia, acceleration, mu_r, lambda1, body_couple, dx,

@@ -38,3 +38,11 @@ def spin(omega):
         return ufl.as_matrix(((0, omega), (-omega, 0)))
     w1, w2, w3 = omega[0], omega[1], omega[2]
     return ufl.as_matrix(((0, w3, -w2), (-w3, 0, w1), (w2, -w1, 0)))
+
+
+def pulled_back_divergence(u, displacement):
+    """div u in the configuration x + ``displacement``, written on x: tr(∇u F⁻¹), F = I + ∇(displacement)
+    (∇_{x'} = ∇ F⁻¹; with dx' = det F dx the integrals match). Generalised-α's corrector uses it for the
+    solid's div u^{n+1} = 0 in Ω^{n+1} on the mesh of t^{n+α_f}."""
+    F = ufl.Identity(len(u)) + ufl.grad(displacement)
+    return ufl.tr(ufl.grad(u) * ufl.inv(F))

@@ -228,25 +228,24 @@ class Problem:
         return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
 
     def residual(self, trial, test, *, acceleration, micro_acceleration=None, dx_inertia=None,
-                 at=None, continuity=None) -> ufl.Form:
+                 at=None, divergence=None) -> ufl.Form:
         """Seed eq. (31) (fluid part, continuity) + eq. (32) + weak wall conditions, as one residual.
 
         ``trial``/``test``: mixed (Trial)Functions or their splits (see :meth:`split`); ``acceleration``
         (and ``micro_acceleration`` with micro-rotation) the material derivatives of u (and ω) as UFL
         expressions; ``dx_inertia`` the measure of the inertia terms (default dx); ``at``: the (u, ω) the
         viscous, couple and wall terms are evaluated at (generalised-α: u^{n+α_f}), default the trial's;
-        the continuity equation holds for ``continuity`` (default: the trial's u). The solid terms are apart
+        the continuity equation is ``divergence`` = 0 (default: div of the trial's u). The solid terms are apart
         (:meth:`solid_residual`): they depend on how the displacement is discretised.
         """
         (u, p, omega), (v, q, tau) = self.split(trial), self.split(test)
-        u_continuity = u if continuity is None else continuity
+        dx = self.dx
+        continuity = fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=dx, divergence=divergence)
         if at is not None:
             u, omega = at
-        dx = self.dx
         F = fluid.momentum_residual(u, p, v, rho=self.rho, acceleration=acceleration, mu=self.mu,
                                     body_force=self.body_force, dx=dx, viscous_form=self.viscous_form,
-                                    dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r)
-        F = F + fluid.continuity_residual(u_continuity, p, q, penalty=self.penalty, dx=dx)
+                                    dx_inertia=dx_inertia, omega=omega, mu_r=self.mu_r) + continuity
         traction = self.traction(v)
         if traction is not None:
             F = F + traction
@@ -262,12 +261,14 @@ class Problem:
                                              ds=ds(tuple(self.facet_tag_values(*walls))), mesh=self.mesh)
         return F
 
-    def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None) -> ufl.Form:
+    def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None,
+                       volume_correction=True) -> ufl.Form:
         """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28, or
         the consistent linearisation with ``time.solid_linearisation: consistent``), or around
         ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
         correction when ``solid.volume_correction``, undone over max(``step``, τ) (``step`` default ``dt``;
-        generalised-α passes δt: its ``dt`` is not the step's)."""
+        generalised-α passes δt: its ``dt`` is not the step's; ``volume_correction`` False: not here, the
+        continuity equation keeps the area itself)."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
         if d_predicted is not None:
             F = solid.corrector_stress_residual(u, v, d_star, d_predicted, mu_s=self.mu_s, dt=dt,
@@ -276,7 +277,7 @@ class Problem:
             stress = (solid.consistent_stress_residual if self.scene.time.solid_linearisation == "consistent"
                       else solid.linearised_stress_residual)
             F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
-        if self.scene.solid.volume_correction:
+        if self.scene.solid.volume_correction and volume_correction:
             tau = self.scene.solid.volume_correction_time
             step = dt if step is None else step
             rate_time = ufl.max_value(step, self.constant(tau)) if tau > 0 else step
