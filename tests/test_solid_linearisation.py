@@ -30,6 +30,13 @@ def _exact_residual(u, v, d_star, eps, dx):
     return ufl.inner(S, ufl.grad(v) * F_inv) * ufl.det(F_step) * dx
 
 
+def vector(form):
+    """The assembled vector of a linear form (ghosts summed)."""
+    b = fem_petsc.assemble_vector(compat.form(form))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return b
+
+
 def _differences():
     mesh = dolfinx.mesh.create_unit_square(MPI.COMM_WORLD, 6, 6)
     V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))
@@ -38,11 +45,6 @@ def _differences():
     u.interpolate(lambda x: np.vstack([np.cos(x[0] + 2 * x[1]), 0.5 * x[0] ** 2 - x[1]]))
     v = ufl.TestFunction(V)
     dx = ufl.dx(domain=mesh)
-
-    def vector(form):
-        b = fem_petsc.assemble_vector(compat.form(form))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return b
 
     out = {"seed": [], "consistent": []}
     for eps in (4e-3, 2e-3, 1e-3):
@@ -86,11 +88,6 @@ def test_corrector_stress_is_one_newton_step():
     e.interpolate(lambda x: np.vstack([np.sin(3 * x[0]) * x[1], np.cos(x[0] * x[1])]))
     v, dx, eps = ufl.TestFunction(V), ufl.dx(domain=mesh), 1e-2
 
-    def vector(form):
-        b = fem_petsc.assemble_vector(compat.form(form))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return b
-
     seed = vector(solid.linearised_stress_residual(u, v, d_star, mu_s=1.0, dt=eps, dx_solid=dx))
     same = vector(solid.corrector_stress_residual(u, v, d_star, d_star, mu_s=1.0, dt=eps, dx_solid=dx))
     same.axpy(-1.0, seed)
@@ -121,11 +118,6 @@ def test_pulled_back_divergence_is_the_divergence_on_the_moved_mesh():
     shift.interpolate(lambda x: np.vstack([0.08 * np.sin(3 * x[1]), 0.05 * x[0] * x[1]]))
     q = ufl.TestFunction(Q)
     dx = ufl.dx(domain=mesh)
-
-    def vector(form):
-        b = fem_petsc.assemble_vector(compat.form(form))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return b
 
     F = ufl.Identity(2) + ufl.grad(shift)
     pulled = vector(q * pulled_back_divergence(u, shift) * ufl.det(F) * dx)
@@ -164,11 +156,6 @@ def test_incompressibility_newton_is_a_newton_step_of_ln_J():
     motion.interpolate(lambda x: np.vstack([0.02 * np.sin(3 * x[1]), 0.01 * x[0] * x[1]]))
     q, I, rate = ufl.TestFunction(Q), ufl.Identity(2), 50.0
     dx = ufl.dx(domain=mesh)
-
-    def vector(form):
-        b = fem_petsc.assemble_vector(compat.form(form))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return b
 
     newton, lagging = [], []
     for eps in (4e-3, 2e-3, 1e-3):
