@@ -103,20 +103,3 @@ def volume_correction_residual(q, d, *, dt, dx_solid) -> ufl.Form:
     """
     J = 1.0 / ufl.det(ufl.Identity(len(d)) - ufl.grad(d))
     return -q * ufl.ln(J) / dt * dx_solid
-
-
-def incompressibility_newton(u, u_predicted, d_end_predicted, motion_to_end, *, rate):
-    """The solid's continuity equation of a generalised-α corrector pass, as the expression that stands for
-    div u: one Newton step of ln J^{n+1} = 0 (seed eq. 12's J = det F of d^{n+1}, F = (I − ∇d)⁻¹, in
-    Ω^{n+1}) instead of div u^{n+1} = −ln J^n/δt (:func:`volume_correction_residual`), on the mesh the pass
-    is assembled on (t^{n+α_f}). At the material points d^{n+1} = d̂ + (u − û)/``rate`` (``u_predicted``
-    = û, ``d_end_predicted`` = d̂ the predicted d^{n+1}, ``motion_to_end`` = the predicted x^{n+1} − x, so
-    ∇_{n+1} = ∇ F_x⁻¹, F_x = I + ∇(motion_to_end)), and a displacement δ moving with the material changes
-    ln J by div_{n+1} δ to first order:
-
-        div_{n+1} u − div_{n+1} û + rate · ln Ĵ^{n+1} = 0,   ln Ĵ^{n+1} = −ln det(I − ∇d̂ F_x⁻¹).
-
-    The area is kept by the displacement the step makes, not by a velocity that undoes last step's drift."""
-    F_inv = ufl.inv(ufl.Identity(len(u)) + ufl.grad(motion_to_end))
-    ln_J = -ufl.ln(ufl.det(ufl.Identity(len(u)) - ufl.grad(d_end_predicted) * F_inv))
-    return ufl.tr((ufl.grad(u) - ufl.grad(u_predicted)) * F_inv) + rate * ln_J

@@ -261,14 +261,12 @@ class Problem:
                                              ds=ds(tuple(self.facet_tag_values(*walls))), mesh=self.mesh)
         return F
 
-    def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None,
-                       volume_correction=True) -> ufl.Form:
+    def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None) -> ufl.Form:
         """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28, or
         the consistent linearisation with ``time.solid_linearisation: consistent``), or around
         ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
         correction when ``solid.volume_correction``, undone over max(``step``, τ) (``step`` default ``dt``;
-        generalised-α passes δt: its ``dt`` is not the step's; ``volume_correction`` False: not here, the
-        continuity equation keeps the area itself)."""
+        generalised-α passes δt: its ``dt`` is not the step's)."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
         if d_predicted is not None:
             F = solid.corrector_stress_residual(u, v, d_star, d_predicted, mu_s=self.mu_s, dt=dt,
@@ -277,7 +275,7 @@ class Problem:
             stress = (solid.consistent_stress_residual if self.scene.time.solid_linearisation == "consistent"
                       else solid.linearised_stress_residual)
             F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
-        if self.scene.solid.volume_correction and volume_correction:
+        if self.scene.solid.volume_correction:
             tau = self.scene.solid.volume_correction_time
             step = dt if step is None else step
             rate_time = ufl.max_value(step, self.constant(tau)) if tau > 0 else step

@@ -36,13 +36,11 @@ holds for u^{n+α_f} in the fluid (div u^{n+α_f} = 0 in Ω^{n+α_f}, where the 
 and for u^{n+1} in the solid (with div u^{n+α_f} there FSI3 diverged within 3 s of flutter).
 With ``time.corrector_passes`` and a moving solid each pass re-places the mesh at the predicted
 t^{n+α_f} and re-linearises the solid stress and the convection there (``_correct_generalized_alpha``):
-without it (session 14) FSI3 diverged at ρ∞ = 0.5. In a pass the solid's continuity equation is taken in
-Ω^{n+1}, with the predicted motion d^{n+1} − d^{n+α_f}: one Newton step of J^{n+1} = 1 for the
-displacement the step makes (``solid.incompressibility_newton``, which replaces the volume correction's
-relaxation of J^n), or div u^{n+1} = 0 pulled back (``kinematics.pulled_back_divergence``) without
-``solid.volume_correction``. Each pass is one step of a fixed-point iteration whose limit is implicit in
-the geometry, the stress and the area; on FSI3 one pass is far from it and two are close (three change
-the amplitude by 0.1 point; docs/performance.md, session 16).
+without it (session 14) FSI3 diverged at ρ∞ = 0.5. In a pass the solid's div u^{n+1} = 0 is taken in
+Ω^{n+1}: pulled back with the predicted motion d^{n+1} − d^{n+α_f} (``kinematics.pulled_back_divergence``).
+Each pass is one step of a fixed-point iteration whose limit is implicit in the geometry and the stress;
+on FSI3 one pass is far from it and two are close (three change the amplitude by 0.1 point;
+docs/performance.md, session 16).
 """
 
 from __future__ import annotations
@@ -52,7 +50,6 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import DivergenceError
-from ..physics import solid
 from ..physics.kinematics import pulled_back_divergence
 from ..timers import Timers
 from .boundary import BoundaryConditions
@@ -218,8 +215,7 @@ class Stepper:
                         dx_inertia=h.dx_inertia, at=at, divergence=divergence)
         if pr.model.solid:
             F = F + pr.solid_residual(trial, test, self.d_star, self.solid_dt, d_predicted,
-                                      step=self.step_dt if self.ga is not None else None,
-                                      volume_correction=not self._keeps_area(d_predicted))
+                                      step=self.step_dt if self.ga is not None else None)
         return compat.form(ufl.lhs(F)), compat.form(ufl.rhs(F))
 
     def _solid_divergence(self, u, d_predicted):
@@ -228,20 +224,9 @@ class Stepper:
         d^{n+1} − d^{n+α_f} (``self.d_to_end``)."""
         if d_predicted is None or self.d_to_end is None:
             return ufl.div(u)
-        # the fields are the solid's only in solid cells (this expression is multiplied by their indicator,
-        # and 0 · NaN is NaN): masked, the fluid cells see F = I and J = 1
-        solid_cells = 1.0 - self.fluid_cells
-        motion = solid_cells * self.d_to_end
-        if self._keeps_area(d_predicted):
-            return solid.incompressibility_newton(u, self.u_predicted, solid_cells * (d_predicted + self.d_to_end),
-                                                  motion, rate=self.alpha_f / self.solid_dt)
-        return pulled_back_divergence(u, motion)
-
-    def _keeps_area(self, d_predicted) -> bool:
-        """A generalised-α pass with ``solid.volume_correction``: the continuity equation is a Newton step of
-        J^{n+1} = 1 (``solid.incompressibility_newton``) and replaces the volume correction."""
-        return (d_predicted is not None and self.d_to_end is not None
-                and self.problem.scene.solid.volume_correction)
+        # d_to_end is the solid's only in solid cells (this expression is multiplied by their indicator,
+        # and 0 · NaN is NaN): masked, the fluid cells see F = I
+        return pulled_back_divergence(u, (1.0 - self.fluid_cells) * self.d_to_end)
 
     # --------------------------------------------------------------------------------- one step
     def advance(self, observe=None) -> None:
@@ -398,8 +383,6 @@ class Stepper:
         if self.d_to_end is not None:  # d^{n+1} − d^{n+α_f} = (1 − α_f)/α_f (d^{n+α_f} − d^n)
             self.d_to_end.x.array[:] = (1.0 - alpha_f) / alpha_f * (d_hat - state.displacement.x.array)
             self.d_to_end.x.scatter_forward()
-            self.u_predicted.x.array[:] = u_new
-            self.u_predicted.x.scatter_forward()
         with self.timers("mesh_motion"):
             self._place_solid_moved_by(d_hat - state.displacement.x.array)
             self._set_convecting(alpha_f * u_new + (1.0 - alpha_f) * self.u_old.x.array, t_f)
