@@ -197,9 +197,10 @@ class Time(_Section):
     the unresolved modes set by ``rho_infinity`` (ρ∞, default 0.5; the resolved ones are barely damped,
     unlike BDF2's 4.5 % per period at ωδt = 1/3). ρ∞ = 1 (no damping) is unstable for a solid: the
     linearised stress leaves a part of the solid's stiffest modes explicit (scheme/stepper.py). For flows:
-    CFD3 at δt = 0.002 +1.8 % with one solve per step. For FSI with ``corrector_passes: 1`` (without it
-    FSI3 diverges at ρ∞ = 0.5): FSI3 at δt = 0.01, where BDF2 loses half the amplitude
-    (docs/performance.md, issue 12, session 15).
+    CFD3 at δt = 0.002 +1.8 % with one solve per step. For FSI with ``corrector_passes: 2`` (without
+    passes FSI3 diverges at ρ∞ = 0.5; one pass is far from their fixed point): FSI3 at δt = 0.01, where
+    BDF2 loses half the amplitude, +2.7 % / +0.49 % on the seed mesh (docs/performance.md, issue 12,
+    session 16).
 
     ``scheme: steady`` solves the steady equations (no time derivative) by Newton's method
     (cosserat_fsi/scheme/steady.py); ``dt`` and ``t_end`` are then not used (one "step" at t = 1).

@@ -222,7 +222,7 @@ class Stepper:
         """Generalised-α, the solid's div u^{n+1}: on Ω^{n+α_f}, where the step is solved; in a corrector
         pass pulled back from Ω^{n+1}: tr(∇u F⁻¹), F = I + ∇(x^{n+1} − x^{n+α_f}) with the predicted
         d^{n+1} − d^{n+α_f} (``self.d_to_end``)."""
-        if d_predicted is None or self.d_to_end is None:
+        if d_predicted is None:  # (with generalised-α only its passes give one, and they set d_to_end)
             return ufl.div(u)
         # d_to_end is the solid's only in solid cells (this expression is multiplied by their indicator,
         # and 0 · NaN is NaN): masked, the fluid cells see F = I
@@ -380,11 +380,11 @@ class Stepper:
         d_hat[:] = self.d_star.x.array
         d_hat.reshape(-1, dim)[nodes] += float(self.solid_dt.value) * u_new.reshape(-1, dim)[nodes]
         self.d_predicted.x.scatter_forward()
-        if self.d_to_end is not None:  # d^{n+1} − d^{n+α_f} = (1 − α_f)/α_f (d^{n+α_f} − d^n)
-            self.d_to_end.x.array[:] = (1.0 - alpha_f) / alpha_f * (d_hat - state.displacement.x.array)
-            self.d_to_end.x.scatter_forward()
+        increment = d_hat - state.displacement.x.array  # d^{n+α_f} − d^n
+        self.d_to_end.x.array[:] = (1.0 - alpha_f) / alpha_f * increment  # d^{n+1} − d^{n+α_f}
+        self.d_to_end.x.scatter_forward()
         with self.timers("mesh_motion"):
-            self._place_solid_moved_by(d_hat - state.displacement.x.array)
+            self._place_solid_moved_by(increment)
             self._set_convecting(alpha_f * u_new + (1.0 - alpha_f) * self.u_old.x.array, t_f)
         self._reassemble(self.a_corrector)
         with self.timers("assemble_vector"):
