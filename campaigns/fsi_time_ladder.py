@@ -13,6 +13,7 @@ two), the observed order of the amplitude against the finest run of each ladder,
     python campaigns/fsi_time_ladder.py --continuations cfd3-dt --from DIR --runs R --md T.md  # session 12's
     python campaigns/fsi_time_ladder.py --foot-map DIR --dts 0.0025 0.002  # the foot maps in DIR's flow
     python campaigns/fsi_time_ladder.py --averages DIR [DIR ...]  # uy(A) averaged over the last 2 s
+    python campaigns/fsi_time_ladder.py --oscillator 0.5 --frequency 5.3  # generalised-α's own phase error
 """
 
 from __future__ import annotations
@@ -66,7 +67,30 @@ LADDERS = {
                                        "time.corrector_passes": passes, "time.dt": dt, "time.t_end": 8.0})
                                      for dt in DTS]
        for mesh, level in (("seed", "seed"), ("L1", 1)) for passes in (1, 2)},
+    # session 17: the same with the volume correction undone over a fixed τ = 0.01 s (≥ every δt of the
+    # ladder) instead of over max(δt, τ = 2 ms): the one-step correction's strength grows like 1/δt, which
+    # changes the discrete problem with δt (docs/performance.md, "Issue 12, session 17")
+    **{f"fsi3-{mesh}-ga-c2-tau": [(f"tau0.01-{mesh}-dt{dt}", "configs/turek_hron_fsi3.yaml",
+                                   {**ALE, "geometry.level": level, "time.scheme": "generalized_alpha",
+                                    "time.corrector_passes": 2, "solid.volume_correction_time": 0.01,
+                                    "time.dt": dt, "time.t_end": 8.0})
+                                  for dt in DTS]
+       for mesh, level in (("seed", "seed"), ("L1", 1))},
 }
+
+
+def oscillator_errors(rho_infinity: float, omega_dt: float) -> tuple[float, float]:
+    """Generalised-α (first-order form, scheme/stepper.py) on ẏ = iωy: (relative frequency error, amplitude
+    factor per period) at ω δt — the scheme's own phase error on an oscillation resolved by 2π/(ωδt) steps."""
+    from cosserat_fsi.scheme.stepper import generalized_alpha
+
+    alpha_m, alpha_f, gamma = generalized_alpha(rho_infinity)
+    lam = 1j * omega_dt  # unknowns (y^{n+1}, δt ẏ^{n+1}) from (y^n, δt ẏ^n)
+    lhs = np.array([[1.0, -gamma], [-lam * alpha_f, alpha_m]])
+    rhs = np.array([[1.0, 1.0 - gamma], [lam * (1.0 - alpha_f), -(1.0 - alpha_m)]])
+    roots = np.linalg.eigvals(np.linalg.solve(lhs, rhs))
+    root = roots[np.argmin(np.abs(roots - np.exp(lam)))]
+    return float(np.angle(root) / omega_dt - 1.0), float(abs(root) ** (2.0 * np.pi / omega_dt))
 
 
 # Issue 12, session 12: continuations of a developed checkpoint (--continuations NAME --from DIR): (case, seconds,
@@ -328,7 +352,16 @@ def main(argv=None) -> int:
     p.add_argument("--from", dest="origin", type=Path)
     p.add_argument("--foot-map", dest="foot_map", type=Path, help="checkpointed run: the foot maps' numbers")
     p.add_argument("--dts", type=float, nargs="*", default=[0.005, 0.004, 0.0025, 0.002, 0.00125, 0.000625])
+    p.add_argument("--oscillator", type=float, metavar="RHO_INFINITY",
+                   help="generalised-α's frequency error and amplitude factor per period on an oscillator")
+    p.add_argument("--frequency", type=float, default=5.3, help="the oscillator's frequency (Hz)")
     a = p.parse_args(argv)
+    if a.oscillator is not None:
+        for dt in DTS:
+            error, factor = oscillator_errors(a.oscillator, 2.0 * np.pi * a.frequency * dt)
+            print(f"ρ∞ = {a.oscillator}, δt = {dt}: ωδt = {2 * np.pi * a.frequency * dt:.3f}, frequency "
+                  f"{100 * error:+.3f} %, amplitude × {factor:.5f} per period")
+        return 0
     if a.averages:
         print("\n".join(averaged(d) for d in a.averages))
         return 0

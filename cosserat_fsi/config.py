@@ -151,6 +151,9 @@ class Solid(_Section):
     seed's explicit node update x += δt u accumulates (on by default; off is the seed's scheme).
     ``volume_correction_time`` (s): undo it over max(δt/α, this) instead of in one step (0: one step, as
     before); at small δt the one-step correction feeds back on itself (docs/performance.md, issue 12).
+    The correction is part of the discrete problem: for a δt study set this ≥ the largest δt/α, so that
+    every run solves the same one (with the one-step correction FSI3's frequency drifts at first order
+    in δt; docs/performance.md, issue 12, session 17).
     ``initial_velocity``: uniform initial velocity
     of the solid (m/s), e.g. to start a free vibration. ``mesh_motion``: see :class:`MeshMotionSettings`.
     """
