@@ -14,6 +14,7 @@ two), the observed order of the amplitude against the finest run of each ladder,
     python campaigns/fsi_time_ladder.py --foot-map DIR --dts 0.0025 0.002  # the foot maps in DIR's flow
     python campaigns/fsi_time_ladder.py --averages DIR [DIR ...]  # uy(A) averaged over the last 2 s
     python campaigns/fsi_time_ladder.py --oscillator 0.5 --frequency 5.3  # generalised-α's own phase error
+    python campaigns/fsi_time_ladder.py --area-defect DIR [DIR ...]  # ln J over the solid at the checkpoint
 """
 
 from __future__ import annotations
@@ -275,6 +276,36 @@ def foot_map(run_dir: Path, dts: list[float]) -> str:
     return "\n".join(lines)
 
 
+def area_defect(run_dir: Path) -> str:
+    """The solid's area defect at ``run_dir``'s checkpoint: mean and rms of ln J over the solid cells,
+    J = 1/det(I − ∇d) (what the volume correction undoes; session 17)."""
+    import dolfinx
+    import ufl
+    from mpi4py import MPI
+
+    from cosserat_fsi import compat
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.io.checkpoint import read_checkpoint
+    from cosserat_fsi.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
+    _, states = read_checkpoint(run_dir, comm, fingerprint)
+    scene = load_scene(run_dir / "config.yaml", [])
+    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
+    sim.restore(states)
+    d, dx_solid = sim.state.displacement, sim.stepper.problem.dx_solid
+    ln_j = -ufl.ln(ufl.det(ufl.Identity(len(d)) - ufl.grad(d)))
+
+    def integral(e):
+        return comm.allreduce(dolfinx.fem.assemble_scalar(compat.form(e * dx_solid)), op=MPI.SUM)
+
+    area = integral(1.0)
+    return (f"{run_dir.name} at t = {sim.t:g}: ln J over the solid: mean {integral(ln_j) / area:+.3e}, "
+            f"rms {np.sqrt(integral(ln_j ** 2) / area):.3e}")
+
+
 def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path) -> Path:
     """Continue the checkpoint of ``run_dir`` for ``seconds`` with ``overrides`` (another δt: the BDF2
     levels re-interpolated, ``rescale_history``); write
@@ -355,7 +386,12 @@ def main(argv=None) -> int:
     p.add_argument("--oscillator", type=float, metavar="RHO_INFINITY",
                    help="generalised-α's frequency error and amplitude factor per period on an oscillator")
     p.add_argument("--frequency", type=float, default=5.3, help="the oscillator's frequency (Hz)")
+    p.add_argument("--area-defect", dest="area_defect", nargs="+", type=Path, metavar="DIR",
+                   help="mean and rms of ln J over the solid at each checkpointed run's checkpoint")
     a = p.parse_args(argv)
+    if a.area_defect:
+        print("\n".join(area_defect(d) for d in a.area_defect))
+        return 0
     if a.oscillator is not None:
         for dt in DTS:
             error, factor = oscillator_errors(a.oscillator, 2.0 * np.pi * a.frequency * dt)
