@@ -227,13 +227,9 @@ def _percentile(values: np.ndarray, weights: np.ndarray, q: float = 0.99) -> flo
     return float(values[order][np.searchsorted(cumulative, q)])
 
 
-def foot_map(run_dir: Path, dts: list[float]) -> str:
-    """How far the BDF2 foot maps x → x − kδt u* (k = 1, 2) are from the identity in the checkpointed
-    flow of ``run_dir``, for each δt: with ∇u* at the cell centroids (u* = 2u^n − u^{n−1}, P2 on affine
-    triangles), div u = 0 gives det(I − s∇u*) = 1 + s² det ∇u*, so the straight-line map over s = 2δt
-    folds (det ≤ 0, feet crossing) where s √(−det ∇u*) ≥ 1 (strain-dominated), and its rotation error
-    (s ω)²/2 is large where s √(det ∇u*) is (vortex cores). A markdown table of the maxima of both numbers
-    over the mesh, where the maximum is, and the areas where the strain number exceeds ½ and 1."""
+def checkpointed(run_dir: Path, overrides=()) -> tuple:
+    """(scene, simulation, states) of ``run_dir``'s checkpoint: the simulation built from its config.yaml
+    with ``overrides`` on COMM_WORLD, the states read but not yet restored into it."""
     from mpi4py import MPI
 
     from cosserat_fsi.app.runner import load_mesh
@@ -243,10 +239,20 @@ def foot_map(run_dir: Path, dts: list[float]) -> str:
 
     comm = MPI.COMM_WORLD
     fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
-    meta, states = read_checkpoint(run_dir, comm, fingerprint)
-    scene = load_scene(run_dir / "config.yaml")
+    _, states = read_checkpoint(run_dir, comm, fingerprint)
+    scene = load_scene(run_dir / "config.yaml", list(overrides))
     mesh, ct, ft, _ = load_mesh(scene, comm)
-    sim = Simulation(scene, mesh, ct, ft, comm)
+    return scene, Simulation(scene, mesh, ct, ft, comm), states
+
+
+def foot_map(run_dir: Path, dts: list[float]) -> str:
+    """How far the BDF2 foot maps x → x − kδt u* (k = 1, 2) are from the identity in the checkpointed
+    flow of ``run_dir``, for each δt: with ∇u* at the cell centroids (u* = 2u^n − u^{n−1}, P2 on affine
+    triangles), div u = 0 gives det(I − s∇u*) = 1 + s² det ∇u*, so the straight-line map over s = 2δt
+    folds (det ≤ 0, feet crossing) where s √(−det ∇u*) ≥ 1 (strain-dominated), and its rotation error
+    (s ω)²/2 is large where s √(det ∇u*) is (vortex cores). A markdown table of the maxima of both numbers
+    over the mesh, where the maximum is, and the areas where the strain number exceeds ½ and 1."""
+    _, sim, states = checkpointed(run_dir)
     sim.restore(states)
     loc = sim.stepper.histories.chars.locator
     u = sim.state.velocity
@@ -284,19 +290,13 @@ def area_defect(run_dir: Path) -> str:
     from mpi4py import MPI
 
     from cosserat_fsi import compat
-    from cosserat_fsi.app.runner import load_mesh
-    from cosserat_fsi.config import load_scene
-    from cosserat_fsi.io.checkpoint import read_checkpoint
-    from cosserat_fsi.simulation import Simulation
+    from cosserat_fsi.physics.solid import volume_ratio
 
-    comm = MPI.COMM_WORLD
-    fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
-    _, states = read_checkpoint(run_dir, comm, fingerprint)
-    scene = load_scene(run_dir / "config.yaml", [])
-    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
+    _, sim, states = checkpointed(run_dir)
     sim.restore(states)
+    comm = sim.comm
     d, dx_solid = sim.state.displacement, sim.stepper.problem.dx_solid
-    ln_j = -ufl.ln(ufl.det(ufl.Identity(len(d)) - ufl.grad(d)))
+    ln_j = ufl.ln(volume_ratio(d))
 
     def integral(e):
         return comm.allreduce(dolfinx.fem.assemble_scalar(compat.form(e * dx_solid)), op=MPI.SUM)
@@ -311,20 +311,11 @@ def continue_with(run_dir: Path, overrides: list[str], seconds: float, out: Path
     levels re-interpolated, ``rescale_history``); write
     ``out``/timeseries.csv (the run's series up to the checkpoint, then the new steps) and summary.json."""
 
-    from mpi4py import MPI
-
-    from cosserat_fsi.app.runner import load_mesh
-    from cosserat_fsi.config import dump_resolved, load_scene
-    from cosserat_fsi.io.checkpoint import read_checkpoint
+    from cosserat_fsi.config import dump_resolved
     from cosserat_fsi.observables import Observables
-    from cosserat_fsi.simulation import Simulation
 
-    comm = MPI.COMM_WORLD
-    fingerprint = json.loads((run_dir / "checkpoint" / "meta.json").read_text())["fingerprint"]
-    meta, states = read_checkpoint(run_dir, comm, fingerprint)
-    scene = load_scene(run_dir / "config.yaml", overrides)
-    mesh, ct, ft, _ = load_mesh(scene, comm)
-    sim = Simulation(scene, mesh, ct, ft, comm)
+    scene, sim, states = checkpointed(run_dir, overrides)
+    comm, mesh = sim.comm, sim.mesh
     obs = Observables(sim)
     sim.state.restore(states, float(abs(sim.mesh.geometry.x).max()))
     dt_old = float(yaml.safe_load((run_dir / "config.yaml").read_text())["time"]["dt"])
