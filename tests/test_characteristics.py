@@ -38,6 +38,34 @@ def test_vectorised_p2_evaluation_equals_function_eval(tmp_path):
         assert np.abs(ours - theirs).max() < 1e-12
 
 
+def test_tree_shared_by_nearby_configurations(tmp_path):
+    """PointLocator.tree is built once per mesh and serves configurations within its slack (padded
+    boxes): located through it (no hint, so the tree path), each point of a moved configuration is in the
+    cell found, and a point is found exactly when some cell contains it (brute force over all cells).
+    A configuration beyond the slack gets a new tree, and locates as well."""
+    mesh = _mesh(tmp_path)
+    locator = PointLocator(mesh)
+    first = locator.tree
+    slack = characteristics._TREES[mesh][1]
+    X = mesh.geometry.x[:, :2].copy()
+    rng = np.random.default_rng(1)
+    points = np.zeros((400, 3))
+    points[:, 0], points[:, 1] = rng.uniform(-0.05, 2.25, 400), rng.uniform(-0.05, 0.46, 400)
+    all_cells = np.arange(len(locator.x0), dtype=np.int32)
+    for scale, shared in ((0.9, True), (3.0, False)):
+        wobble = scale * slack * np.column_stack([np.sin(40 * X[:, 1]), np.cos(30 * X[:, 0])])
+        locator.update(X + wobble)
+        assert (locator.tree is first) == shared
+        cells = locator.locate(points)
+        lam = np.array([characteristics.barycentric(locator, np.repeat(p[None], len(all_cells), 0), all_cells)
+                        for p in points])  # (points, 2, cells)
+        inside = np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1 - lam[:, 0] - lam[:, 1]) >= -characteristics._TOL
+        found = cells >= 0
+        assert found.sum() > 300
+        assert np.array_equal(found, inside.any(axis=1))
+        assert inside[np.flatnonzero(found), cells[found]].all()
+
+
 def test_neighbour_table():
     """Two triangles sharing the edge (1, 2): each is the other's neighbour across it, opposite node 0 of
     the first and node 3 (local 1) of the second; the other edges are boundary (−1)."""

@@ -270,7 +270,11 @@ def _set_quadrature(f, values):
     dofs = compat.cell_dofs(f.function_space)
     bs = f.function_space.dofmap.index_map_bs
     arr = f.x.array.reshape(-1, bs)
-    arr[dofs[: len(values) // dofs.shape[1]].ravel()] = values.reshape(-1, bs)
+    rows = dofs[: len(values) // dofs.shape[1]].ravel()
+    if len(rows) and rows[0] == 0 and rows[-1] == len(rows) - 1 and np.array_equal(rows, np.arange(len(rows))):
+        arr[: len(rows)] = values.reshape(-1, bs)  # dofs in cell-major order (a quadrature space's): a copy
+    else:
+        arr[rows] = values.reshape(-1, bs)
 
 
 def _pad(v):

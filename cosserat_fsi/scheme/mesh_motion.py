@@ -248,6 +248,9 @@ class WallGap:
         if len(self.segments):  # solid vertices on a wall from the start (attached) are not checked
             dofs = dofs[self.distance(X[dofs])[0] > self.gap]
         self.dofs, self.X = dofs, X[dofs]
+        # their distance to the walls at rest: a vertex displaced by |d| is at least this − |d| away, so
+        # ``check`` measures only the vertices that could be within the gap
+        self.rest_distance = self.distance(self.X)[0] if len(self.segments) and len(dofs) else np.zeros(len(dofs))
 
     def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distance of each point to the nearest wall segment (3D: wall triangle), and its index."""
@@ -265,7 +268,9 @@ class WallGap:
         """DivergenceError if a solid vertex at X + displacement (P1 dof array) is within the gap of a wall."""
         if not len(self.segments):
             return
-        x = self.X + solid_displacement.reshape(-1, self.X.shape[1])[self.dofs]
+        displacement = solid_displacement.reshape(-1, self.X.shape[1])[self.dofs]
+        near = self.rest_distance - np.linalg.norm(displacement, axis=1) < self.gap
+        x = self.X[near] + displacement[near]
         dist = self.distance(x)[0] if len(x) else np.zeros(0)
         worst = (float(dist.min()), tuple(x[int(dist.argmin())])) if len(dist) else (np.inf, None)
         gap, where = min(self.comm.allgather(worst), key=lambda w: w[0])
