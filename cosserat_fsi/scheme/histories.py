@@ -271,7 +271,7 @@ def _set_quadrature(f, values):
     bs = f.function_space.dofmap.index_map_bs
     arr = f.x.array.reshape(-1, bs)
     rows = dofs[: len(values) // dofs.shape[1]].ravel()
-    if len(rows) and rows[0] == 0 and rows[-1] == len(rows) - 1 and np.array_equal(rows, np.arange(len(rows))):
+    if np.array_equal(rows, np.arange(len(rows))):
         arr[: len(rows)] = values.reshape(-1, bs)  # dofs in cell-major order (a quadrature space's): a copy
     else:
         arr[rows] = values.reshape(-1, bs)

@@ -245,12 +245,11 @@ class WallGap:
         X = np.zeros((n, d))
         X[motion.node_dof[: len(motion.X0)]] = motion.X0
         dofs = motion.solid_dofs[motion.solid_dofs < motion.M.dofmap.index_map.size_local]
-        if len(self.segments):  # solid vertices on a wall from the start (attached) are not checked
-            dofs = dofs[self.distance(X[dofs])[0] > self.gap]
-        self.dofs, self.X = dofs, X[dofs]
         # their distance to the walls at rest: a vertex displaced by |d| is at least this − |d| away, so
         # ``check`` measures only the vertices that could be within the gap
-        self.rest_distance = self.distance(self.X)[0] if len(self.segments) and len(dofs) else np.zeros(len(dofs))
+        rest = self.distance(X[dofs])[0] if len(self.segments) else np.full(len(dofs), np.inf)
+        keep = rest > self.gap  # solid vertices on a wall from the start (attached) are not checked
+        self.dofs, self.X, self.rest_distance = dofs[keep], X[dofs[keep]], rest[keep]
 
     def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distance of each point to the nearest wall segment (3D: wall triangle), and its index."""
