@@ -29,8 +29,7 @@ def linearised_stress_residual(u, v, d_star, *, mu_s, dt, dx_solid) -> ufl.Form:
 
     ½ μ_s ∫_s [Dd* − G*ᵀG* + δt (Du − HᵀG* − G*ᵀH)] : Dũ,   G* = ∇d*, H = ∇u.
 
-    Linear in u. :func:`consistent_stress_residual` restores the O(δt) terms this form drops
-    (``time.solid_linearisation: consistent``).
+    Linear in u.
     """
     G, H = ufl.grad(d_star), ufl.grad(u)
     return 0.5 * mu_s * ufl.inner(strain_measure(d_star) + dt * (D(u) - H.T * G - G.T * H), D(v)) * dx_solid
@@ -50,29 +49,6 @@ def corrector_stress_residual(u, v, d_star, d_predicted, *, mu_s, dt, dx_solid) 
     delta = d_star + dt * u - d_predicted
     H = ufl.grad(delta)
     return 0.5 * mu_s * ufl.inner(strain_measure(d_predicted) + D(delta) - H.T * G - G.T * H, D(v)) * dx_solid
-
-
-def consistent_stress_residual(u, v, d_star, *, mu_s, dt, dx_solid) -> ufl.Form:
-    """The solid terms of seed eq. (31) linearised consistently around d* on the configuration the step is
-    assembled on (Ω^n, or BDF2's Ω*), with d^{n+1} = d* + δt u^{n+1} at the material points and x^{n+1} =
-    x + δt u^{n+1} (``dt`` = δt/α as in :func:`linearised_stress_residual`). With H = ∇u on that
-    configuration, ∇_{n+1} = ∇(I + δt H)⁻¹, so
-
-        ∇_{n+1}d^{n+1} = G* + δt (I − G*) H + O(δt²),   Dd − GᵀG ≈ S* + δt (B*⁻¹H + HᵀB*⁻¹),
-
-    B*⁻¹ = (I − G*)ᵀ(I − G*) (seed eq. 11; eq. 28 keeps only Du − HᵀG* − G*ᵀH), and pulling
-    ∫_{Ω^{n+1}_s} σ:∇_{n+1}ũ back adds the initial-stress terms of the elastic part σ* = μ_s S*:
-
-        μ_s ∫_s [S* + δt (B*⁻¹H + HᵀB*⁻¹)] : ∇ũ − δt μ_s ∫_s S* : (∇ũ H) + δt μ_s ∫_s (S* : ∇ũ) div u.
-
-    Linear in u; the difference from the seed's form is O(δt |G*|), the time error it removes.
-    """
-    G, H, I = ufl.grad(d_star), ufl.grad(u), ufl.Identity(len(u))
-    S, grad_v = strain_measure(d_star), ufl.grad(v)
-    B_inv = (I - G).T * (I - G)
-    stress_rate = B_inv * H + H.T * B_inv
-    return mu_s * (ufl.inner(S + dt * stress_rate, grad_v) - dt * ufl.inner(S, grad_v * H)
-                   + dt * ufl.inner(S, grad_v) * ufl.div(u)) * dx_solid
 
 
 def elastic_energy_density(d, mu_s):

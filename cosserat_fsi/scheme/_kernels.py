@@ -228,7 +228,7 @@ def at_reference_points(phi, dofs, values, bs, n_cells):
 
 
 @_jit
-def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc_nm1, neighbours,
+def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neighbours,
                     dofs_u, u_n, u_nm1, dofs_w, w_n, w_nm1, with_w, qdofs_u, out_u, qdofs_w, out_w):
     """The BDF2 history α h = 2 f^n(x − δt u*) − ½ f^{n−1}(x − 2δt u*), u* = 2u^n − u^{n−1}, at the
     quadrature points x (cell-major: point i is point i % nq of cell i // nq), for f = u (2-vector) and,
@@ -240,9 +240,6 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
     ``loc_nm1`` ((x0, J⁻¹) of ``PointLocator``) the fields were computed on. The feet are located by a
     walk from the point's cell in ``loc_n`` (f^n) and ``loc_nm1`` (f^{n−1}), the basis taken from the
     walk's last barycentric coordinates, the coefficients of the point's own cell loaded once per cell.
-    ``midpoint``: the feet by the two-stage (midpoint) rule instead of the straight lines (histories.py
-    ``bdf2_feet``): X¹ = x − δt (3/2 u^n − ½ u^{n−1})(x − ½δt u*), X² = x − 2δt u^n(x − δt u*), the
-    midpoint velocities located by walks in ``loc_n`` / ``loc_nm1`` like the feet.
     On a fixed mesh u* is Σ_k φ_k (2c^n_k − c^{n−1}_k), as histories.py's numpy path computes it.
     Returns (status, u*): status 0 = done, 1 = a foot not reached by a walk (u* set there only), 2 = x
     not reached in an earlier configuration (moving mesh): the caller does those on the general path."""
@@ -253,7 +250,6 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
     x0b, Jb = loc_nm1
     big = np.iinfo(np.int32).max
     dt2 = 2.0 * dt
-    half = 0.5 * dt
     for c in range(n // nq):
         d = _dofs6(dofs_u, c, 2)
         a = (_coef(u_n, d, 0), _coef(u_n, d, 1))  # u^n and u^{n−1} in this cell
@@ -279,25 +275,8 @@ def bdf2_quadrature(x, nq, phi, moving, dt, midpoint, tol, max_steps, loc_n, loc
                 s0, s1 = 2.0 * un0 - um0, 2.0 * un1 - um1
             else:
                 s0, s1 = _sum6(p, sa[0]), _sum6(p, sa[1])
-            if midpoint:  # velocities at the midpoints of the two trajectories
-                ma, l0, l1, l2 = _walk_one(px - half * s0, py - half * s1, c, x0a, Ja, neighbours, tol, big,
-                                           max_steps)
-                mb, m0, m1, m2 = _walk_one(px - half * s0, py - half * s1, c, x0b, Jb, neighbours, tol, big,
-                                           max_steps)
-                mc, k0, k1, k2 = _walk_one(px - dt * s0, py - dt * s1, c, x0a, Ja, neighbours, tol, big,
-                                           max_steps)
-                if ma < 0 or mb < 0 or mc < 0:
-                    status[i] = 1
-                    u_star[i, 0], u_star[i, 1] = s0, s1
-                    continue
-                ha0, ha1 = _vector_at(_basis_l(l0, l1, l2), ma, c, a, u_n, dofs_u)
-                hb0, hb1 = _vector_at(_basis_l(m0, m1, m2), mb, c, b, u_nm1, dofs_u)
-                hc0, hc1 = _vector_at(_basis_l(k0, k1, k2), mc, c, a, u_n, dofs_u)
-                f1x, f1y = px - dt * (1.5 * ha0 - 0.5 * hb0), py - dt * (1.5 * ha1 - 0.5 * hb1)
-                f2x, f2y = px - dt2 * hc0, py - dt2 * hc1
-            else:
-                f1x, f1y = px - dt * s0, py - dt * s1
-                f2x, f2y = px - dt2 * s0, py - dt2 * s1
+            f1x, f1y = px - dt * s0, py - dt * s1
+            f2x, f2y = px - dt2 * s0, py - dt2 * s1
             c1, l0, l1, l2 = _walk_one(f1x, f1y, c, x0a, Ja, neighbours, tol, big, max_steps)
             c2, m0, m1, m2 = _walk_one(f2x, f2y, c, x0b, Jb, neighbours, tol, big, max_steps)
             if c1 < 0 or c2 < 0:
@@ -332,6 +311,6 @@ def warm_up() -> None:
         for bs in (1, 2, 3):
             p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6 * bs), bs)
         qdofs = np.zeros(1, dtype=np.int32)
-        bdf2_quadrature(pts, 1, np.zeros((1, 6)), False, 0.1, False, 1e-10, 8, (x0, Jinv), (x0, Jinv), neighbours,
+        bdf2_quadrature(pts, 1, np.zeros((1, 6)), False, 0.1, 1e-10, 8, (x0, Jinv), (x0, Jinv), neighbours,
                         dofs, np.zeros(12), np.zeros(12), dofs, np.zeros(6), np.zeros(6), False, qdofs,
                         np.zeros(2), qdofs, np.zeros(1))

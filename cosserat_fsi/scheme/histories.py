@@ -1,10 +1,10 @@
-"""The histories α·h of the characteristics scheme (seed §5.1) and the accelerations built from them.
+"""The histories α·h of the characteristics schemes (seed §5.1) and the accelerations built from them.
 
 First order (seed): α = 1, h = u^n∘X^n with the feet x − δt (u^n − w)(x) (w the mesh velocity). BDF2:
 α = 3/2, α h = 2 u^n∘X¹ − ½ u^{n−1}∘X², feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}; on a moving mesh the
 feet are located in the configurations u^n and u^{n−1} were computed on. α h lives at the quadrature points
-of the inertia terms (FreeFEM's ``convect``: the feet of the quadrature points, evaluated exactly) or, with
-``time.characteristics: nodes``, at the P2 nodes (ω alone with ``micropolar.nodal_characteristics``).
+of the inertia terms (FreeFEM's ``convect``: the feet of the quadrature points, evaluated exactly); ω's
+at the P2 nodes instead with ``micropolar.nodal_characteristics``.
 The low-level point location and evaluation are in characteristics.py.
 """
 
@@ -31,25 +31,15 @@ class Histories:
         self.dt, self.comm, self.moving = dt, comm, moving
         self.micro = problem.model.micro_rotation
         V = sp.space("velocity")
-        t = scene.time
-        self.ale = t.convection == "ale"  # nodal histories, no feet (the stepper adds the convection)
-        self.degree = t.quadrature_degree if t.characteristics == "quadrature" and not self.ale else None
-        self.midpoint = t.foot == "midpoint"
-        if self.degree:
-            self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (mesh.geometry.dim,)))
-            self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.degree})
-        else:
-            self.velocity = dolfinx.fem.Function(V)
-            self.dx_inertia = ufl.dx(domain=mesh)
-        self.omega_apart = bool(self.micro and self.degree and scene.micropolar.nodal_characteristics
-                                and not self.ale)
+        self.degree = scene.time.quadrature_degree
+        self.velocity = dolfinx.fem.Function(compat.quadrature_space(mesh, self.degree, (mesh.geometry.dim,)))
+        self.dx_inertia = ufl.dx(domain=mesh, metadata={"quadrature_degree": self.degree})
+        self.omega_apart = bool(self.micro and scene.micropolar.nodal_characteristics)
         self.micro_rotation = None
         if self.micro:
-            S = sp.space("micro_rotation")
-            at_quadrature = self.degree and not scene.micropolar.nodal_characteristics
             self.micro_rotation = dolfinx.fem.Function(
-                compat.quadrature_space(mesh, self.degree, (3,) if mesh.geometry.dim == 3 else ())
-                if at_quadrature else S)
+                sp.space("micro_rotation") if self.omega_apart
+                else compat.quadrature_space(mesh, self.degree, (3,) if mesh.geometry.dim == 3 else ()))
         self.chars = Characteristics(V, sp.space("micro_rotation") if self.micro else None, comm)
         self.earlier_locators = (self.chars.locator, self.chars.locator)
         self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
@@ -63,38 +53,21 @@ class Histories:
     # ------------------------------------------------------------------------------------ update
     def update(self, alpha: float, state: State, solve_displacement=None) -> None:
         """Set α·h from ``state`` (first order, α = 1, or BDF2 feet). ``solve_displacement``: the P1 mesh
-        displacement of the configuration the step is solved on (BDF2 on a moving mesh).
-
-        ``time.convection: ale``: α h = u^n (α = 1) or 2u^n − ½u^{n−1} node by node: the values the mesh's
-        nodes carried at t^n and t^{n−1} (the BDF of the nodal values is the time derivative along the
-        mesh's motion; the stepper adds the convection relative to it)."""
-        if self.ale:
-            for target, now, before in ((self.velocity, state.velocity, state.velocity_prev),
-                                        (self.micro_rotation, state.micro_rotation, state.micro_rotation_prev)):
-                if target is not None:
-                    target.x.array[:] = (now.x.array if alpha == 1.0
-                                         else 2.0 * now.x.array - 0.5 * before.x.array)
-            return
+        displacement of the configuration the step is solved on (BDF2 on a moving mesh)."""
         chars, micro, degree = self.chars, self.micro, self.degree
         with_omega = micro and not self.omega_apart
         current = [state.velocity] + ([state.micro_rotation] if with_omega else [])
         previous = [state.velocity_prev] + ([state.micro_rotation_prev] if with_omega else [])
-        if degree and alpha != 1.0 and self._compiled_bdf2(current, previous):
+        if alpha != 1.0 and self._compiled_bdf2(current, previous):
             self._bdf2_quadrature(state, current, previous)
-        elif degree:
+        else:
             hist = self._values(alpha, degree, state, current, previous, solve_displacement)
             _set_quadrature(self.velocity, hist[0])
             if with_omega:
                 _set_quadrature(self.micro_rotation, hist[1])
-        else:
-            hist = self._values(alpha, degree, state, current, previous, solve_displacement)
-            n, bs = chars.n_nodes, self.velocity.function_space.dofmap.index_map_bs
-            self.velocity.x.array[: n * bs] = hist[0].ravel()
-            self.velocity.x.scatter_forward()
-        if self.omega_apart or (micro and not degree):
-            values = (self._values(alpha, None, state, [state.micro_rotation], [state.micro_rotation_prev],
-                                   solve_displacement)[0]
-                      if self.omega_apart else hist[1])
+        if self.omega_apart:
+            values = self._values(alpha, None, state, [state.micro_rotation], [state.micro_rotation_prev],
+                                  solve_displacement)[0]
             self.micro_rotation.x.array[:] = chars.to_S(values).ravel()
             self.micro_rotation.x.scatter_forward()
 
@@ -118,8 +91,7 @@ class Histories:
             return self._at_feet(x, x - dt * _pad(u_x - w_x), fns_n, cells)
         if not self.moving:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1} (coefficientwise)
             u_star = _pad(at_x(self._extrapolated(state)))
-            loc = self.chars.locator
-            feet1, feet2 = self.bdf2_feet(state, x, u_star, (loc, x), (loc, x), cells)
+            feet1, feet2 = x - dt * u_star, x - 2.0 * dt * u_star
             vals1 = self._at_feet(x, feet1, fns_n, cells)
             vals2 = self._at_feet(x, feet2, fns_nm1, cells)
         else:
@@ -135,29 +107,10 @@ class Histories:
             (un_x,) = evaluate(loc_n, [state.velocity], x, x_n, comm, hint=cells)
             (unm1_x,) = evaluate(loc_nm1, [state.velocity_prev], x, x_nm1, comm, hint=cells)
             u_star = _pad(2.0 * un_x - unm1_x)
-            feet1, feet2 = self.bdf2_feet(state, x, u_star, (loc_n, x_n), (loc_nm1, x_nm1), cells)
+            feet1, feet2 = x - dt * u_star, x - 2.0 * dt * u_star
             vals1 = evaluate(loc_n, fns_n, feet1, x_n, comm, hint=cells)
             vals2 = evaluate(loc_nm1, fns_nm1, feet2, x_nm1, comm, hint=cells)
         return [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
-
-    def bdf2_feet(self, state: State, x: np.ndarray, u_star: np.ndarray, at_n, at_nm1, cells=None):
-        """The BDF2 feet (X¹ of t^n, X² of t^{n−1}) of the points x (n, 3) with u* = 2u^n − u^{n−1} at x
-        (n, 3); ``at_n``, ``at_nm1``: (locator, anchors) of the configurations u^n and u^{n−1} live on.
-
-        ``time.foot: euler``: straight lines x − δt u*, x − 2δt u*. ``midpoint``: one midpoint (RK2) step
-        of dX/dt = u(X, t) back from (x, t^{n+1}) with the velocity at the middle of each interval,
-        X¹ = x − δt u^{n+½}(x − ½δt u*), u^{n+½} = 3/2 u^n − ½ u^{n−1}, and X² = x − 2δt u^n(x − δt u*):
-        each foot exact to O(δt³) instead of O(δt²) (the straight lines' O(δt²) errors cancel in
-        2u^n∘X¹ − ½u^{n−1}∘X² only while δt|u| is small against the flow's length scale)."""
-        dt = self.dt
-        if not self.midpoint:
-            return x - dt * u_star, x - 2.0 * dt * u_star
-        (loc_n, x_n), (loc_nm1, x_nm1) = at_n, at_nm1
-        half_way = x - (0.5 * dt) * u_star
-        (ua,) = evaluate(loc_n, [state.velocity], half_way, x_n, self.comm, hint=cells)
-        (ub,) = evaluate(loc_nm1, [state.velocity_prev], half_way, x_nm1, self.comm, hint=cells)
-        (uc,) = evaluate(loc_n, [state.velocity], x - dt * u_star, x_n, self.comm, hint=cells)
-        return x - dt * _pad(1.5 * ua - 0.5 * ub), x - 2.0 * dt * _pad(uc)
 
     # ------------------------------------------------------------- BDF2 at the quadrature points, compiled
     def _compiled_bdf2(self, current, previous) -> bool:
@@ -187,7 +140,7 @@ class Histories:
         w_n, w_nm1 = (fns_n[1].x.array, fns_nm1[1].x.array) if with_w else (fns_n[0].x.array,) * 2
         phi = reference_basis(degree)
         status, u_star = _kernels.bdf2_quadrature(
-            x, len(phi), phi, self.moving, dt, self.midpoint,
+            x, len(phi), phi, self.moving, dt,
             characteristics._TOL, characteristics._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
             (loc_nm1.x0, loc_nm1.Jinv_flat), loc.neighbours, dofs_u, fns_n[0].x.array, fns_nm1[0].x.array,
             dofs_w, w_n, w_nm1, with_w, qdofs[0], targets[0].x.array, qdofs[-1], targets[-1].x.array)
@@ -202,8 +155,8 @@ class Histories:
         else:
             x_n = x_nm1 = x
         rest = np.flatnonzero(status)
-        feet1, feet2 = self.bdf2_feet(state, x[rest], _pad(u_star[rest]), (loc_n, x_n[rest]),
-                                      (loc_nm1, x_nm1[rest]), cells[rest])
+        u_rest = _pad(u_star[rest])
+        feet1, feet2 = x[rest] - dt * u_rest, x[rest] - 2.0 * dt * u_rest
         vals1 = evaluate(loc_n, fns_n, feet1, x_n[rest], comm, hint=cells[rest])
         vals2 = evaluate(loc_nm1, fns_nm1, feet2, x_nm1[rest], comm, hint=cells[rest])
         for f, dofs, v1, v2 in zip(targets, qdofs, vals1, vals2):
@@ -245,8 +198,8 @@ class Histories:
     # ------------------------------------------------------------------------------ locators
     def mesh_moved(self, rebuild: bool) -> None:
         """The mesh moved: ``rebuild`` a new locator (BDF2 keeps the old one as an earlier configuration)
-        or update the current one in place. (``ale``: no earlier configurations are needed.)"""
-        if rebuild and not self.ale:
+        or update the current one in place."""
+        if rebuild:
             self.chars.locator = PointLocator(self.chars.locator.mesh)
         else:
             self.chars.locator.update()

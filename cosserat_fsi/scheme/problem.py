@@ -262,9 +262,8 @@ class Problem:
         return F
 
     def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None) -> ufl.Form:
-        """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28, or
-        the consistent linearisation with ``time.solid_linearisation: consistent``), or around
-        ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
+        """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28), or
+        around ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
         correction when ``solid.volume_correction``, undone over max(``step``, τ) (``step`` default ``dt``;
         generalised-α passes δt: its ``dt`` is not the step's)."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
@@ -272,9 +271,7 @@ class Problem:
             F = solid.corrector_stress_residual(u, v, d_star, d_predicted, mu_s=self.mu_s, dt=dt,
                                                 dx_solid=self.dx_solid)
         else:
-            stress = (solid.consistent_stress_residual if self.scene.time.solid_linearisation == "consistent"
-                      else solid.linearised_stress_residual)
-            F = stress(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
+            F = solid.linearised_stress_residual(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
         if self.scene.solid.volume_correction:
             tau = self.scene.solid.volume_correction_time
             step = dt if step is None else step
