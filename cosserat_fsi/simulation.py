@@ -16,13 +16,10 @@ from pathlib import Path
 from mpi4py import MPI
 
 from .scheme.boundary import BoundaryConditions
-from .scheme.histories import Histories
-from .scheme.linear_solver import LinearSolver
 from .scheme.mesh_motion import MeshMotion, PrescribedMotion
 from .scheme.problem import Model, Problem
+from .scheme.schemes import scheme_class
 from .scheme.state import State
-from .scheme.steady import steady_stepper
-from .scheme.stepper import SCHEMES, Stepper
 from .timers import Timers
 
 Callback = Callable[["Simulation"], None]
@@ -68,22 +65,16 @@ class Simulation:
         self.on_remesh: list[Callable[[Simulation, dict], None]] = []
 
     def _new_state(self) -> State:
-        """A State for the scene's scheme on the current problem and mesh motion (not set)."""
-        scheme = self.scene.time.scheme
-        return State(self.problem, SCHEMES[scheme], self.motion, rates=scheme == "generalized_alpha")
+        """A State for the scene's scheme on the current problem and mesh motion (not set): the levels and
+        rates the scheme keeps."""
+        scheme = scheme_class(self.scene, self.problem.model)
+        return State(self.problem, scheme.levels(self.scene.time), self.motion, rates=scheme.RATES)
 
     def _stepper(self):
-        """The scheme: characteristics (first order or BDF2), or a steady solver."""
-        scene, comm = self.scene, self.comm
-        boundary = BoundaryConditions(self.problem, comm, self.exact)
-        if scene.time.scheme == "steady":
-            return steady_stepper(self.problem, self.state, boundary, self.motion, self.timers, comm)
-        histories = Histories(scene, self.problem, float(scene.time.dt), comm, moving=self.motion is not None)
-        solver = LinearSolver(scene.solver, comm,
-                              reuse_factorization=scene.solver.reuses_factorization(self.motion is not None,
-                                                                                    scene.time.convection),
-                              problem=self.problem)
-        return Stepper(self.problem, self.state, boundary, histories, solver, self.motion, self.timers, comm)
+        """The scene's time scheme (scheme/schemes.py), with its boundary conditions."""
+        boundary = BoundaryConditions(self.problem, self.comm, self.exact)
+        return scheme_class(self.scene, self.problem.model).create(self.problem, self.state, boundary, self.motion,
+                                                                   self.timers, self.comm)
 
     def _motion(self, prescribed_motion):
         """The mesh motion (pluggable: harmonic extension of the solid's displacement today)."""
@@ -203,9 +194,7 @@ class Simulation:
                 callback(self)
 
     def steps_to(self, t_end: float) -> int:
-        """The number of steps of the run to ``t_end`` (a steady solve is one step)."""
-        if self.scene.time.scheme == "steady":
-            return 1
+        """The number of steps of the run to ``t_end`` (a steady solve is one step: its dt and t_end are 1)."""
         return int(round(t_end / self.scene.time.dt))
 
     def check(self) -> None:

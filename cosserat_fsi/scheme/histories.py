@@ -196,6 +196,11 @@ class Histories:
         return evaluate(self.chars.locator, functions, feet, anchors, self.comm, hint=cells)
 
     # ------------------------------------------------------------------------------ locators
+    @property
+    def locator(self):
+        """The point locator of the current mesh."""
+        return self.chars.locator
+
     def mesh_moved(self, rebuild: bool) -> None:
         """The mesh moved: ``rebuild`` a new locator (BDF2 keeps the old one as an earlier configuration)
         or update the current one in place."""

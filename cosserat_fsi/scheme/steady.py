@@ -6,7 +6,8 @@ scene's :class:`~.problem.Problem` residual as its material accelerations. Newto
 state with the boundary data, so its first iterate is the Stokes solution; when it does not converge, a
 continuation in the convection (the Reynolds number) follows (``time.newton_continuation``).
 
-Scenes with a solid (CSM, FSI): :mod:`.steady_solid` (Lagrangian statics, monolithic ALE for FSI).
+Scenes with a solid (CSM, FSI): :mod:`.steady_solid` (Lagrangian statics, monolithic ALE for FSI); the
+scheme registry (schemes.py) picks one of the two.
 
 A steady solve is one "step" of the run loop: :meth:`SteadyStepper.advance` solves, fills the State
 (so observables, outputs and checkpoints work unchanged) and calls ``observe``. A Newton that does
@@ -18,7 +19,7 @@ from __future__ import annotations
 import logging
 
 from .. import compat
-from ..errors import DivergenceError, InputError
+from ..errors import DivergenceError
 from .characteristics import PointLocator
 from .linear_solver import LinearSolver
 from .newton import Newton, NewtonReport
@@ -28,23 +29,6 @@ import ufl
 from petsc4py import PETSc
 
 log = logging.getLogger("cosserat_fsi")
-
-
-def steady_stepper(problem, state, boundary, motion, timers, comm):
-    """The steady solver of a scene's kind (Simulation's stepper for ``time.scheme: steady``)."""
-    if problem.model.solid:
-        from .steady_solid import SteadySolid
-
-        if problem.scene.has_fluid and problem.model.micro_rotation:
-            raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
-                             "steady solid solve has no micro-rotation); use characteristics1 or characteristics2")
-
-        log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
-                 "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
-        return SteadySolid(problem, state, boundary, motion, timers, comm)
-    log.info("steady: Newton on the steady equations (convection (u.grad)u%s), MUMPS",
-             ", (u.grad)omega" if problem.model.micro_rotation else "")
-    return SteadyFluid(problem, state, boundary, motion, timers, comm)
 
 
 def steady_time(scene) -> float:
@@ -58,12 +42,22 @@ def steady_time(scene) -> float:
 
 
 class SteadyStepper:
-    """The run-loop face of a steady solver (the Simulation's stepper): one step, a Newton report, failure
-    recorded for the runner. Subclasses build ``space``, ``solution``, ``residual`` and ``_solve``."""
+    """The run-loop face of a steady solver (the Simulation's scheme, time_step.py's interface): one step, a
+    Newton report, failure recorded for the runner. Subclasses build ``space``, ``solution``, ``residual``
+    and ``_solve``."""
 
     failure: str | None = None
     report: NewtonReport | None = None
     ITERATIVE = False  # takes solver.type: iterative (else MUMPS whatever the scene says)
+    RATES = False
+
+    @staticmethod
+    def levels(time) -> int:
+        return 1
+
+    @classmethod
+    def create(cls, problem, state, boundary, motion, timers, comm):
+        return cls(problem, state, boundary, motion, timers, comm)
 
     def __init__(self, problem, state, boundary, motion, timers, comm):
         self.problem, self.state, self.boundary, self.motion = problem, state, boundary, motion
@@ -125,6 +119,12 @@ class SteadyFluid(SteadyStepper):
     """Steady Navier–Stokes (and micropolar) flow by Newton on the mixed u (× ω) × p space."""
 
     ITERATIVE = True
+
+    @classmethod
+    def create(cls, problem, state, boundary, motion, timers, comm):
+        log.info("steady: Newton on the steady equations (convection (u.grad)u%s), MUMPS",
+                 ", (u.grad)omega" if problem.model.micro_rotation else "")
+        return cls(problem, state, boundary, motion, timers, comm)
 
     def __init__(self, problem, state, boundary, motion, timers, comm):
         super().__init__(problem, state, boundary, motion, timers, comm)

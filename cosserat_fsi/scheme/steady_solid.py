@@ -21,6 +21,7 @@ from __future__ import annotations
 import logging
 
 from .. import compat
+from ..errors import InputError
 from ..physics import lagrangian
 from ..tags import FLUID, SOLID
 from .boundary import BoundaryConditions
@@ -49,6 +50,15 @@ def displacement_space(mesh) -> MixedSpace:
 
 class SteadySolid(SteadyStepper):
     """Static solid, or steady FSI, by Newton on the reference mesh (continuation in the load if needed)."""
+
+    @classmethod
+    def create(cls, problem, state, boundary, motion, timers, comm):
+        if problem.scene.has_fluid and problem.model.micro_rotation:
+            raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
+                             "steady solid solve has no micro-rotation); use a time-stepping scheme")
+        log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
+                 "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
+        return cls(problem, state, boundary, motion, timers, comm)
 
     def __init__(self, problem, state, boundary, motion, timers, comm):
         super().__init__(problem, state, boundary, motion, timers, comm)
