@@ -19,7 +19,7 @@ import logging
 
 from .. import compat
 from ..errors import DivergenceError, InputError
-from .characteristics import PointLocator
+from .point_location import PointLocator
 from .linear_solver import LinearSolver
 from .newton import Newton, NewtonReport
 

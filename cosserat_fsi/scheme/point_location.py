@@ -1,26 +1,24 @@
-"""Method of characteristics: evaluate fields at the feet X^n(x) = x − δt (u^n − w)(x) (seed §5.1).
+"""Parallel point location and evaluation of P2 fields at arbitrary points of a (moving) mesh.
 
-The feet are computed at the nodes of a P2 space (the velocity and micro-rotation share them) and the
-fields are evaluated there with a parallel point location:
+Used for the feet of the characteristics X^n(x) = x − δt (u^n − w)(x) (seed §5.1; w the mesh velocity,
+w = 0 on a fixed mesh), for probes and for the transfer of fields between meshes:
 
-1. local search: bounding-box candidates among the rank's cells (owned + ghost) and a vectorised
-   barycentric test (dolfinx 0.11's exact GJK test is 10–15× slower, shared/reference/dolfinx_stacks.md);
-2. cross-rank search: feet found on no local cell (≈ 0.15 % with shared-facet ghosts) are gathered on
-   every rank, located among owned cells and evaluated by the owner;
+1. local search (``PointLocator``): bounding-box candidates among the rank's cells (owned + ghost) and a
+   vectorised barycentric test (dolfinx 0.11's exact GJK test is 10–15× slower,
+   shared/reference/dolfinx_stacks.md);
+2. cross-rank search: points found on no local cell (≈ 0.15 % of the feet with shared-facet ghosts) are
+   gathered on every rank, located among owned cells and evaluated by the owner;
 3. feet outside the domain are pulled back towards their node (halving the step) until they are inside,
    so they take the value at the boundary crossing ("points that leave the domain take the boundary value").
-
-w is the mesh velocity (ALE): with w = 0 this is the fixed-mesh scheme.
 
 On tetrahedra (3D) the same steps run in numpy (barycentric tests) and dolfinx's ``Function.eval`` in the
 located cells (the P2 evaluation); the compiled kernels below are for triangles.
 
 The barycentric tests and the P2 evaluation run in compiled kernels (``_kernels``, numba) when numba is
 available (``COMPILED``; ``COSSERAT_FSI_NO_NUMBA=1`` turns them off); the numpy functions here are the
-reference they reproduce operation by operation, and the fallback.
-
-Above 350 lines on purpose: the numpy reference of every compiled kernel stays beside the code that picks
-between them, so that the two paths (tested equal to round-off) are read and changed together.
+reference they reproduce operation by operation, and the fallback: the two paths (tested equal to
+round-off) stay side by side so that they are read and changed together. The points the feet start from
+(P2 nodes, quadrature points of every cell) are in ``back_tracking_nodes``.
 """
 
 from __future__ import annotations
@@ -78,7 +76,7 @@ class PointLocator:
             self.Jinv = np.linalg.inv(J)
         self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, tdim * tdim))
         self.x0 = np.ascontiguousarray(self.x0)
-        self.quadrature_cache = {}  # degree -> Characteristics.quadrature_nodes in this geometry
+        self.quadrature_cache = {}  # degree -> back_tracking_nodes.Characteristics.quadrature_nodes here
 
     @property
     def tree(self):
@@ -230,7 +228,7 @@ def reference_basis(degree: int) -> np.ndarray:
     return phi
 
 
-def _coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarray]:
+def p2_coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarray]:
     """The P2 coefficients of ``f`` in ``cells``, one (n, 6) array per component: a gather per component
     (np.take on a contiguous copy) is ~4× faster than one (n, 6, bs) fancy-index gather."""
     bs = f.function_space.dofmap.index_map_bs
@@ -241,7 +239,7 @@ def _coefficients(locator: PointLocator, f, cells: np.ndarray) -> list[np.ndarra
 
 def combine(locator: PointLocator, f, phi: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Σ_k φ_k c_k: values of the P2 field ``f`` from basis values ``phi`` (n, 6) in ``cells``."""
-    return np.stack([(phi * c).sum(axis=1) for c in _coefficients(locator, f, cells)], axis=1)
+    return np.stack([(phi * c).sum(axis=1) for c in p2_coefficients(locator, f, cells)], axis=1)
 
 
 def is_p2(locator: PointLocator, f) -> bool:
@@ -358,88 +356,6 @@ def _remote_evaluate(locator, functions, pts, values, lost, comm):
         ok = hit[mine] > 0
         val[lost[ok]] = total[mine][ok] / hit[mine][ok, None]
     return hit[mine] > 0
-
-
-class Characteristics:
-    """Back-tracking on the nodes of a P2 space V (vector; bs = gdim) and, optionally, a scalar P2 space S.
-
-    All local nodes (owned and ghost) are tracked, so every local node of S has its value without a
-    scatter; callers scatter forward afterwards to make ghosts bit-equal to their owners. ``V`` and ``S``
-    are collapsed sub-spaces with the same element layout; the node permutation between them is built
-    from their cell dofmaps.
-    """
-
-    def __init__(self, V, S=None, comm=MPI.COMM_WORLD):
-        mesh = V.mesh
-        self.comm = comm
-        self.locator = PointLocator(mesh)
-        self.V = V
-        imap = V.dofmap.index_map
-        self.n_nodes = imap.size_local + imap.num_ghosts
-        self.S = S
-        if S is not None:
-            cdV, cdS = compat.cell_dofs(V), compat.cell_dofs(S)
-            n_nodes = S.dofmap.index_map.size_local + S.dofmap.index_map.num_ghosts
-            perm = np.empty(n_nodes, dtype=np.int64)
-            perm[cdS.ravel()] = cdV.ravel()
-            self.S_from_V = perm  # local S node -> local V node
-
-    def nodes(self) -> np.ndarray:
-        """Local node coordinates of V (recomputed: the mesh may move)."""
-        return self.V.tabulate_dof_coordinates()[: self.n_nodes]
-
-    def nodal(self, f) -> np.ndarray:
-        """Local nodal values of a function on V, shape (n_nodes, bs)."""
-        bs = f.function_space.dofmap.index_map_bs
-        return f.x.array[: self.n_nodes * bs].reshape(-1, bs)
-
-    def quadrature_nodes(self, degree: int, locator: PointLocator | None = None):
-        """Quadrature points of the default rule of ``degree`` in every local cell, from the current
-        geometry (or that of ``locator``): (points (n_cells·nq, 3), their cells). Kept with the locator
-        until it is updated (read-only arrays)."""
-        locator = locator or self.locator
-        if degree not in locator.quadrature_cache:
-            locator.quadrature_cache[degree] = self._quadrature_nodes(degree, locator)
-        return locator.quadrature_cache[degree]
-
-    @staticmethod
-    def _quadrature_nodes(degree: int, locator: PointLocator):
-        ref = compat.quadrature_points(degree, locator.tdim)
-        x0, J = locator.x0, locator.J
-        n_cells, nq = len(x0), len(ref)
-        out = np.zeros((n_cells, nq, 3))
-        if locator.tdim == 3:  # x = x0 + J ξ
-            out[:] = x0[:, None, :] + np.einsum("nij,qj->nqi", J, ref)
-        else:
-            for i in (0, 1):  # x_i = x0_i + J_i0 ξ + J_i1 η, written out (≈ 5× faster than an einsum)
-                out[:, :, i] = x0[:, i, None] + J[:, i, 0, None] * ref[:, 0] + J[:, i, 1, None] * ref[:, 1]
-        points, cells = out.reshape(-1, 3), np.repeat(np.arange(n_cells, dtype=np.int32), nq)
-        points.flags.writeable = cells.flags.writeable = False
-        return points, cells
-
-    def at_quadrature_nodes(self, f, degree: int) -> np.ndarray:
-        """Values of the P2 field ``f`` at ``quadrature_nodes(degree)``: the basis at the reference
-        points is the same in every cell, so this is Σ_k φ_k(ξ_q) c_k per cell, summed in k order from 0
-        as ``combine`` (and the compiled kernels) do; a matrix product would sum in BLAS's order."""
-        if self.locator.tdim != 2:  # tetrahedra: dolfinx's evaluation in the known cells
-            points, cells = self.quadrature_nodes(degree)
-            return f.eval(points, cells).reshape(len(points), -1)
-        phi = reference_basis(degree)  # (nq, 6)
-        if COMPILED and is_p2(self.locator, f):
-            return _kernels.at_reference_points(phi, self.locator.dofs(f.function_space), f.x.array,
-                                                f.function_space.dofmap.index_map_bs, len(self.locator.x0))
-        cells = np.arange(len(self.locator.x0))
-        out = []
-        for c in _coefficients(self.locator, f, cells):  # per component: (n_cells, 6) coefficients
-            total = np.zeros((len(c), len(phi)))
-            for k in range(6):
-                total += c[:, k, None] * phi[None, :, k]
-            out.append(total)
-        return np.stack(out, axis=2).reshape(-1, f.function_space.dofmap.index_map_bs)
-
-    def to_S(self, values_at_V_nodes: np.ndarray) -> np.ndarray:
-        """Reorder values at local V nodes to the local nodes of S."""
-        return values_at_V_nodes[self.S_from_V]
 
 
 def probe(locator: PointLocator, functions, points: np.ndarray, comm=MPI.COMM_WORLD):
