@@ -13,7 +13,7 @@ from . import compat
 from .physics import fluid
 from .physics.stress import body_traction, cauchy_stress
 from .exact import EXACT_BENCHMARKS
-from .scheme.characteristics import probe
+from .scheme.point_location import probe
 from .physics.solid import elastic_energy_density
 from .tags import FLUID, SOLID
 

@@ -1,4 +1,4 @@
-"""Boundary conditions by name (issue 17, part 2): the expression grammar, and the conditions on a user's
+"""Boundary conditions by name: the expression grammar, and the conditions on a user's
 mesh against exact solutions and the built-in FSI3 preset. Bad sections: tests/faults/test_input.py."""
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def _channel_scene(tmp_path, boundaries: str):
 
 def _steady_velocity_at(scene, points):
     from cosserat_fsi.app.runner import load_mesh
-    from cosserat_fsi.scheme.characteristics import probe
+    from cosserat_fsi.scheme.point_location import probe
     from cosserat_fsi.simulation import Simulation
 
     comm = MPI.COMM_WORLD
@@ -103,7 +103,7 @@ def test_micro_rotation_condition_per_boundary(tmp_path):
     on the top one, in the same run: ω vanishes at the bottom only; at the top it is ½ curl u = −½ ∂u/∂y."""
     from cosserat_fsi.app.runner import load_mesh
     from cosserat_fsi.config import load_scene
-    from cosserat_fsi.scheme.characteristics import probe
+    from cosserat_fsi.scheme.point_location import probe
     from cosserat_fsi.simulation import Simulation
 
     path = tmp_path / "scene.yaml"

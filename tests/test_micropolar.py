@@ -23,7 +23,7 @@ from cosserat_fsi.exact import NP, UFL, MicropolarPoiseuille, MicropolarTaylorGr
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.stress import cauchy_stress
 from cosserat_fsi.app.runner import load_mesh
-from cosserat_fsi.scheme.characteristics import probe
+from cosserat_fsi.scheme.point_location import probe
 from cosserat_fsi.simulation import Simulation
 
 import dolfinx

@@ -1,4 +1,4 @@
-"""Three dimensions (issue 15): the vector micro-rotation, λ₂ ∇(∇·ω), the vector coupling 2μ_r curl u − 4μ_r ω.
+"""Three dimensions: the vector micro-rotation, λ₂ ∇(∇·ω), the vector coupling 2μ_r curl u − 4μ_r ω.
 
 Steady equations (seed eqs. 31–32 with d = 3, ∂/∂t = 0), solved by the steady Newton solver on the
 ``cube`` geometry (structured tetrahedra, 2 / 4 / 8 divisions per side at levels 0 / 1 / 2):
@@ -19,7 +19,7 @@ from cosserat_fsi.config import validate_scene
 from cosserat_fsi.exact import NP, UFL, MicropolarPoiseuille
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.kinematics import spin
-from cosserat_fsi.scheme.characteristics import probe
+from cosserat_fsi.scheme.point_location import probe
 from cosserat_fsi.simulation import Simulation
 
 import dolfinx

@@ -12,8 +12,6 @@ from __future__ import annotations
 import json
 import logging
 import resource
-import signal
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -35,6 +33,7 @@ from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
+from .stop_signals import StopSignals, signal_handlers
 from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")
@@ -77,7 +76,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     """
     out_dir = Path(out_dir)
     wall0 = time.perf_counter()
-    handlers = _signal_handlers()
+    handlers = signal_handlers()
     fingerprint = scene_fingerprint(scene)
     meta = state = None
     if restart:
@@ -87,13 +86,13 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     remeshed = restart and meta.get("mesh") is not None  # the checkpoint's mesh is a remeshed one
     if remeshed:
         mesh, cell_tags, facet_tags = compat.read_msh(out_dir / meta["mesh"], comm, gdim=scene.geometry.DIM)
-    _signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
+    signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     sim.remesh_folder = out_dir / "meshes"
     # on the reference mesh (point A is found there; on a remeshed mesh where the checkpoint saw it)
     observables = Observables(sim, np.asarray(meta["point_A"]) if remeshed and meta.get("point_A") else None,
                               meta.get("solid_points") if remeshed else None)
-    _signal_handlers(handlers)
+    signal_handlers(handlers)
     if restart:
         agree(comm, sim.restore, state)
         if remeshed:
@@ -138,7 +137,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
 
     def remeshed_to(sim, record):  # a new mesh: observables on it, a new topology in the fields
         nonlocal observables, point_A_on_mesh, solid_points_on_mesh
-        _signal_handlers(handlers)
+        signal_handlers(handlers)
         point_A = observables.point_A_now()
         point_A_on_mesh = None if point_A is None else point_A.tolist()
         solid_points_on_mesh = observables.solid_points_now()
@@ -184,7 +183,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         bar = _progress_bar(n_steps, progress and comm.rank == 0)
         if bar is not None:
             bar.update(sim.step_count)
-        with _StopSignals() as stop:
+        with StopSignals() as stop:
             if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, sim)
             sim.run(n_steps, observers=[observe], after_step=[after_step])
@@ -246,41 +245,6 @@ def _write_summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, me
             raise
         log.error("summary.json not written: %s", exc)
         return None
-
-
-def _signal_handlers(restore: dict | None = None) -> dict:
-    """The Python handlers of SIGINT and SIGTERM; with ``restore``, install those again (which also puts
-    Python's C-level handler back where a library replaced it). Main thread only."""
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    for sig, handler in (restore or {}).items():
-        if handler is not None:
-            signal.signal(sig, handler)
-    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-
-
-class _StopSignals:
-    """Within the block, SIGTERM and SIGINT only record their number (``signum``); the time loop then
-    writes a checkpoint and stops. Outside the main thread (tests) nothing is installed."""
-
-    SIGNALS = (signal.SIGTERM, signal.SIGINT)
-
-    def __init__(self):
-        self.signum = 0
-        self._old = {}
-
-    def _handler(self, signum, frame):
-        self.signum = signum
-
-    def __enter__(self):
-        if threading.current_thread() is threading.main_thread():
-            for sig in self.SIGNALS:
-                self._old[sig] = signal.signal(sig, self._handler)
-        return self
-
-    def __exit__(self, *exc):
-        for sig, old in self._old.items():
-            signal.signal(sig, old)
 
 
 def _progress_bar(total: int, enabled: bool):

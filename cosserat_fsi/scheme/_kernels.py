@@ -1,9 +1,9 @@
 """Compiled (numba) kernels of the characteristics: barycentric point-in-cell tests and P2 evaluation.
 
 Each kernel does, point by point, the same floating-point operations in the same order as the numpy
-reference in characteristics.py (``barycentric``, ``p2_basis``, ``combine``: products and sums written
+reference in point_location.py (``barycentric``, ``p2_basis``, ``combine``: products and sums written
 out, no fast-math, no FMA contraction), so both paths give the same numbers. ``ENABLED`` is False when
-numba cannot be imported or ``COSSERAT_FSI_NO_NUMBA=1``; characteristics.py then uses numpy.
+numba cannot be imported or ``COSSERAT_FSI_NO_NUMBA=1``; point_location.py then uses numpy.
 
 Compiled code is cached on disk (``cache=True``): in ``__pycache__`` next to this file, or, when the
 package is installed read-only, in ``$NUMBA_CACHE_DIR`` (default here: ``<tmp>/cosserat_fsi-numba``).
@@ -27,7 +27,7 @@ try:
     if not ENABLED:
         raise ImportError
     import numba
-except ImportError:  # the numpy path of characteristics.py is used
+except ImportError:  # the numpy path of point_location.py is used
     numba = None
     ENABLED = False
 
@@ -162,7 +162,7 @@ def _p2_values_2(points, cells, x0, Jinv, dofs, values):
 
 def p2_values(points, cells, x0, Jinv, dofs, values, bs: int) -> np.ndarray:
     """Values (n, bs) of the P2 field with local coefficients ``values`` (flat, blocked by ``bs``) at
-    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``characteristics.p2_basis``, summed in k order.
+    points in known cells: Σ_k φ_k(λ) c_k, φ as in ``point_location.p2_basis``, summed in k order.
     Zeros where the cell is −1. Scalar and 2-vector fields have kernels of their own (a fixed block
     size makes them ≈ 1.5–2× faster)."""
     if bs == 1:
@@ -296,7 +296,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neig
 
 
 def warm_up() -> None:
-    """Compile (or load from the cache) every kernel for the argument types characteristics.py passes
+    """Compile (or load from the cache) every kernel for the argument types point_location.py passes
     (writeable and read-only point and cell arrays: quadrature nodes are read-only)."""
     if not ENABLED:
         return

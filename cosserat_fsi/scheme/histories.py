@@ -4,8 +4,8 @@ First order (seed): α = 1, h = u^n∘X^n with the feet x − δt (u^n − w)(x)
 α = 3/2, α h = 2 u^n∘X¹ − ½ u^{n−1}∘X², feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}; on a moving mesh the
 feet are located in the configurations u^n and u^{n−1} were computed on. α h lives at the quadrature points
 of the inertia terms (FreeFEM's ``convect``: the feet of the quadrature points, evaluated exactly); ω's
-at the P2 nodes instead with ``micropolar.nodal_characteristics``.
-The low-level point location and evaluation are in characteristics.py.
+at the P2 nodes instead with ``micropolar.nodal_characteristics``. The low-level point location and
+evaluation are in point_location.py, the points traced back from in back_tracking_nodes.py.
 """
 
 from __future__ import annotations
@@ -13,8 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from .. import compat
-from . import _kernels, characteristics
-from .characteristics import Characteristics, PointLocator, evaluate, is_p2, reference_basis
+from . import _kernels, point_location
+from .back_tracking_nodes import Characteristics
+from .point_location import PointLocator, evaluate, is_p2, reference_basis
 from .state import State
 
 import dolfinx
@@ -120,7 +121,7 @@ class Histories:
 
         def sizes(fns):
             return [f.function_space.dofmap.index_map_bs for f in fns]
-        return (characteristics.COMPILED and all(is_p2(loc, f) for f in current + previous)
+        return (point_location.COMPILED and all(is_p2(loc, f) for f in current + previous)
                 and sizes(current) == sizes(previous) and sizes(current) in ([2], [2, 1]))
 
     def _bdf2_quadrature(self, state: State, fns_n, fns_nm1) -> None:
@@ -141,7 +142,7 @@ class Histories:
         phi = reference_basis(degree)
         status, u_star = _kernels.bdf2_quadrature(
             x, len(phi), phi, self.moving, dt,
-            characteristics._TOL, characteristics._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
+            point_location._TOL, point_location._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
             (loc_nm1.x0, loc_nm1.Jinv_flat), loc.neighbours, dofs_u, fns_n[0].x.array, fns_nm1[0].x.array,
             dofs_w, w_n, w_nm1, with_w, qdofs[0], targets[0].x.array, qdofs[-1], targets[-1].x.array)
         # the rest, as _values does it (point by point the same operations, so the same numbers)

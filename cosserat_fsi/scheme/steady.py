@@ -20,7 +20,7 @@ import logging
 
 from .. import compat
 from ..errors import DivergenceError
-from .characteristics import PointLocator
+from .point_location import PointLocator
 from .linear_solver import LinearSolver
 from .newton import Newton, NewtonReport
 

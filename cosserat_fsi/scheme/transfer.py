@@ -1,4 +1,4 @@
-"""Fields from one mesh to another of the same domain (remeshing, issue 13): ``interpolator(comm)`` is the
+"""Fields from one mesh to another of the same domain (remeshing): ``interpolator(comm)`` is the
 ``interpolate(target, source)`` that ``State.transfer_to`` takes.
 
 dolfinx 0.11 interpolates natively between non-matching meshes; on 0.5.2 the source is evaluated at the
@@ -15,7 +15,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
-from .characteristics import PointLocator, values_anywhere
+from .point_location import PointLocator, values_anywhere
 
 
 def interpolator(comm=MPI.COMM_WORLD) -> Callable:

@@ -1,0 +1,46 @@
+"""SIGINT and SIGTERM during a run: a checkpoint, then a clean stop, instead of a killed process.
+
+``signal_handlers`` saves the Python handlers and puts them back after a library replaced them (gmsh and
+PETSc install their own, even at the C level); ``StopSignals`` makes the signals only record their number
+within the time loop, which then writes a checkpoint and stops (``Interrupted``).
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+
+
+def signal_handlers(restore: dict | None = None) -> dict:
+    """The Python handlers of SIGINT and SIGTERM; with ``restore``, install those again (which also puts
+    Python's C-level handler back where a library replaced it). Main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    for sig, handler in (restore or {}).items():
+        if handler is not None:
+            signal.signal(sig, handler)
+    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+class StopSignals:
+    """Within the block, SIGTERM and SIGINT only record their number (``signum``); the time loop then
+    writes a checkpoint and stops. Outside the main thread (tests) nothing is installed."""
+
+    SIGNALS = (signal.SIGTERM, signal.SIGINT)
+
+    def __init__(self):
+        self.signum = 0
+        self._old = {}
+
+    def _handler(self, signum, frame):
+        self.signum = signum
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                self._old[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
