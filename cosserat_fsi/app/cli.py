@@ -258,7 +258,7 @@ def _parser() -> argparse.ArgumentParser:
     def scene_args(p):
         p.add_argument("config", help="scene YAML file (see configs/)")
         p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                       help="override a config value, e.g. --set time.dt=1e-3 (repeatable)")
+                       help="override a config value, e.g. --set time.dt=1e-3 (repeatable; KEY=null removes the key)")
 
     run = sub.add_parser("run", help="run a scene")
     scene_args(run)

@@ -1,0 +1,159 @@
+"""The whole scene: its sections and the checks across them."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import yaml
+from pydantic import Field, field_validator, model_validator
+
+from cosserat_fsi.geometry import Geometry
+
+from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
+from .physics import Fluid, Inflow, Micropolar, Solid
+from .sections import BoundaryCondition, ObservableSet, Output
+from .solver import Solver
+from .time import Time
+
+
+class Scene(_Section):
+    """A complete, validated scene (one run)."""
+
+    name: str = "scene"
+    benchmark: Benchmark | None = None
+    geometry: Geometry
+    fluid: Fluid | None = None
+    micropolar: Micropolar = Field(default_factory=Micropolar)
+    solid: Solid | None = None
+    inflow: Inflow | None = None
+    boundaries: dict[str, BoundaryCondition] | None = None
+    observables: ObservableSet | None = None
+    time: Time
+    solver: Solver = Field(default_factory=Solver)
+    output: Output = Field(default_factory=Output)
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, value):
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", value):
+            raise ValueError(f"must use only letters, digits, '_', '-', '.' (1 to 100 of them; got {_short(value)})")
+        return value
+
+    @model_validator(mode="after")
+    def _cross_checks(self):
+        """Checks across sections; messages carry their full dotted key. (What each geometry accepts is
+        its own model's business: cosserat_fsi/geometry/.)"""
+        geo, time = self.geometry, self.time
+        if time.scheme != "steady":
+            if time.t_end < time.dt:
+                raise ValueError(f"time.t_end: must be >= time.dt (got {time.t_end!r} < {time.dt!r})")
+            if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
+                raise ValueError(f"time.dt: time.t_end / time.dt must be at most {MAX_STEPS:,} steps "
+                                 f"(got {time.t_end!r} / {time.dt!r})")
+        if time.scheme == "characteristics2" and time.corrector_passes and not self.has_solid:
+            raise ValueError("time.corrector_passes: needs a solid with scheme characteristics2 (the passes "
+                             "re-place the mesh; Picard passes: scheme ale_bdf2 or generalized_alpha)")
+        if geo.FLUID and self.fluid is None:
+            raise ValueError(f"fluid: missing section (required for geometry {geo.name})")
+        if not geo.FLUID and self.fluid is not None:
+            raise ValueError(f"fluid: not used for geometry {geo.name} (a solid-only scene)")
+        flag = getattr(geo, "flag", None)
+        if geo.solid_cells and self.solid is None:
+            hint = ("geometry.flag is solid; use geometry.flag: rigid for a fluid-only run" if flag == "solid"
+                    else f"required for geometry {geo.name}")
+            raise ValueError(f"solid: missing section ({hint})")
+        if self.observables is not None:
+            if geo.name != "file":
+                raise ValueError(f"observables: only for geometry file (geometry {geo.name} has its own)")
+            if self.observables.solid_points and self.solid is None:
+                raise ValueError("observables.solid_points: the scene has no solid section")
+        if self.boundaries is not None:
+            if geo.name != "file":
+                raise ValueError(f"boundaries: only for geometry file (geometry {geo.name} sets its own)")
+            if self.inflow is not None:
+                raise ValueError("inflow: not used with a boundaries section (give the inlet's velocity as "
+                                 "boundaries.NAME: {type: velocity, value: [EXPR, EXPR]})")
+            for name, bc in self.boundaries.items():
+                if bc.value is not None and len(bc.value) != geo.DIM:
+                    raise ValueError(f"boundaries.{name}.value: must have {geo.DIM} components for a {geo.DIM}D "
+                                     f"mesh (got {len(bc.value)})")
+                if bc.micro_rotation is not None and not self.has_micropolar:
+                    raise ValueError(f"boundaries.{name}.micro_rotation: only with micropolar terms "
+                                     "(micropolar.mu_r or lambda1 > 0)")
+        if geo.INFLOW and self.inflow is None:
+            raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
+        if self.benchmark is not None:
+            need_name, need_flag = GEOMETRY_OF_BENCHMARK[self.benchmark]
+            if geo.name != need_name:
+                raise ValueError(f"benchmark: {self.benchmark} needs geometry.name {need_name} "
+                                 f"(got {geo.name!r})")
+            if need_flag is not None and flag != need_flag:
+                raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
+        m = self.micropolar
+        dim = geo.DIM
+        if self.fluid is not None and len(self.fluid.body_force) != dim and (
+                dim == 2 or "body_force" in self.fluid.model_fields_set):
+            raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.fluid.body_force)})")
+        if self.solid is not None and len(self.solid.initial_velocity) != dim and (
+                dim == 2 or "initial_velocity" in self.solid.model_fields_set):
+            raise ValueError(f"solid.initial_velocity: needs {dim} components for the {dim}D geometry {geo.name} "
+                             f"(got {len(self.solid.initial_velocity)})")
+        if dim == 3 and self.solid is not None and self.solid.mesh_motion.remesh is not None:
+            raise ValueError("solid.mesh_motion.remesh: remeshing is 2D only (the 3D mesh motion runs without it)")
+        if dim == 2 and isinstance(m.body_couple, list):
+            raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
+        if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):
+            raise ValueError("micropolar: micropolar_poiseuille needs mu_r > 0 and lambda1 > 0")
+        if self.benchmark == "micropolar_taylor_green":
+            if abs(geo.length - np.pi) > 1e-6:
+                raise ValueError(f"geometry.length: micropolar_taylor_green is on a square of side pi "
+                                 f"(3.14159265358979, got {geo.length!r})")
+            if m.inertia <= 0 and self.has_micropolar:
+                raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
+        return self
+
+    def conditions(self, names=None, extent=None) -> dict[str, BoundaryCondition]:
+        """The boundary conditions by facet name: the ``boundaries`` section, or for a built-in geometry its
+        preset's defaults (geometry/presets.py) — the one mapping the boundary code reads. ``names``: the
+        mesh's facet names and ``extent`` its box (a file scene without a ``boundaries`` section gets the
+        defaults by name)."""
+        if self.boundaries is not None:
+            return self.boundaries
+        from cosserat_fsi.geometry.presets import default_boundaries
+
+        defaults = default_boundaries(self, names, extent)
+        return {name: BoundaryCondition.model_validate(bc) for name, bc in defaults.items()}
+
+    @property
+    def has_micropolar(self) -> bool:
+        """True if mu_r or lambda1 (in 3D also lambda2) is nonzero. In 2D the micro-rotation ω e_z has no
+        divergence, so lambda2 alone has no effect and builds no ω field (it would be an equation with all
+        coefficients zero)."""
+        m = self.micropolar
+        return m.mu_r != 0 or m.lambda1 != 0 or (self.geometry.DIM == 3 and m.lambda2 != 0)
+
+    @property
+    def has_solid(self) -> bool:
+        """True if the mesh has solid cells (Turek–Hron with a solid flag, flag, box) and a solid section."""
+        return self.solid is not None and (self.geometry.solid_cells or self.geometry.SOLID_FROM_FILE)
+
+    @property
+    def has_fluid(self) -> bool:
+        """False for solid-only scenes (geometry flag): no fluid terms are built."""
+        return self.fluid is not None
+
+    @property
+    def has_inflow(self) -> bool:
+        """True if the scene prescribes an inlet velocity."""
+        return self.inflow is not None
+
+    def to_yaml(self) -> str:
+        """The fully resolved scene (all defaults filled in) as YAML that ``load_scene`` accepts."""
+        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False, default_flow_style=False)
+
+
+def dump_resolved(scene: Scene) -> str:
+    """The fully resolved scene as YAML (same as ``scene.to_yaml()``)."""
+    return scene.to_yaml()

@@ -1,0 +1,106 @@
+"""The ``time`` section: one model per time-stepping scheme, chosen by ``scheme`` (required).
+
+A key of another scheme is an error naming the schemes that take it (config/loading.py)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, get_args
+
+from pydantic import Field
+
+from .base import PositiveFloat, _Section
+
+QuadratureDegree = Annotated[int, Field(ge=2, le=12)]
+CorrectorPasses = Annotated[int, Field(ge=0, le=5)]
+
+
+class _Stepping(_Section):
+    """A time-stepping scheme: step ``dt`` and end time ``t_end`` (s), both required."""
+
+    dt: PositiveFloat
+    t_end: PositiveFloat
+
+
+class Characteristics1(_Stepping):
+    """``scheme: characteristics1``: the seed's first-order Lagrange–Galerkin scheme (§5): u^n∘X^n at the
+    feet of the characteristics, no convection in the matrix.
+
+    ``quadrature_degree``: the rule of the inertia term, where u^n∘X^n is evaluated. u^n∘X^n is not a
+    polynomial on a cell, and a low degree can make the scheme unstable at Courant numbers below one
+    (Morton, Priestley & Süli 1988): with degree 4 or 5 the steady CFD2 wake turned noisy at δt = 0.0025;
+    degree 8 (16 points) kept it steady and within 0.5 % of the reference."""
+
+    scheme: Literal["characteristics1"] = "characteristics1"
+    quadrature_degree: QuadratureDegree = 8
+
+
+class Characteristics2(_Stepping):
+    """``scheme: characteristics2``: BDF2 along the characteristics (feet x − δt u*, x − 2δt u*).
+
+    ``quadrature_degree``: as for characteristics1. ``corrector_passes`` (needs a solid): after the solve,
+    move the mesh to the predicted Ω^{n+1}, back-track again from there, linearise the solid stress around
+    the predicted d^{n+1} and solve again (the kept factorisation preconditions it); 0: one solve a step."""
+
+    scheme: Literal["characteristics2"] = "characteristics2"
+    quadrature_degree: QuadratureDegree = 8
+    corrector_passes: CorrectorPasses = 0
+
+
+class AleBdf2(_Stepping):
+    """``scheme: ale_bdf2``: BDF2 of the nodal values along the moving mesh, with the convection
+    ((u* − w*)·∇)u^{n+1} in the matrix (u*, w* extrapolated to t^{n+1}, w* the mesh motion's extension of
+    u*; none in solid cells, where the mesh is the material). No back-tracking; the matrix changes every
+    step; on a moving mesh each step is solved on the extrapolated configuration (the nodes at t^{n+1}).
+
+    ``corrector_passes``: re-solve with the convection linearised around the last solution (Picard)."""
+
+    scheme: Literal["ale_bdf2"] = "ale_bdf2"
+    corrector_passes: CorrectorPasses = 0
+
+
+class GeneralizedAlpha(_Stepping):
+    """``scheme: generalized_alpha``: the generalised-α method of Jansen, Whiting & Hulbert (2000) on the
+    nodal values, convection relative to the mesh as ale_bdf2: second order, one linear solve a step.
+
+    ``rho_infinity`` ρ∞: the damping of the unresolved modes (the resolved ones are barely damped, unlike
+    BDF2's 4.5 % per period at ωδt = 1/3); ρ∞ = 1 (no damping) is unstable for a solid (scheme/stepper.py).
+    ``corrector_passes``: re-place the mesh at the predicted t^{n+α_f}, linearise the solid stress and the
+    convection around the predicted values there and solve again (without a solid: Picard). FSI3 diverges
+    without passes at ρ∞ = 0.5; with 2 at δt = 0.01 it is within 2.7 % (docs/performance.md)."""
+
+    scheme: Literal["generalized_alpha"] = "generalized_alpha"
+    rho_infinity: float = Field(default=0.5, ge=0.0, le=1.0)
+    corrector_passes: CorrectorPasses = 0
+
+
+class Steady(_Section):
+    """``scheme: steady``: the steady equations (no time derivative) by Newton's method (scheme/steady.py),
+    one "step" of length 1 at t = 1 (``dt`` and ``t_end`` are not keys: both read 1).
+
+    ``newton_max_iterations``, ``newton_rtol``: the iteration limit and relative residual tolerance.
+    ``newton_continuation``: fractions of the convection (of the load for a solid) tried one after the
+    other when Newton from the Stokes/unloaded state does not converge."""
+
+    scheme: Literal["steady"] = "steady"
+    newton_max_iterations: int = Field(default=25, ge=1, le=1000)
+    newton_rtol: float = Field(default=1e-10, gt=0, lt=1)
+    newton_continuation: list[Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=lambda: [0.25, 0.5, 1.0])
+
+    @property
+    def dt(self) -> float:
+        """The one step's length."""
+        return 1.0
+
+    @property
+    def t_end(self) -> float:
+        """The end of the one step."""
+        return 1.0
+
+
+Time = Annotated[Characteristics1 | Characteristics2 | AleBdf2 | GeneralizedAlpha | Steady,
+                 Field(discriminator="scheme")]
+"""The ``time`` section of a scene: one model per scheme, chosen by ``scheme``."""
+TIME_SCHEMES: dict[str, type[_Section]] = {m.model_fields["scheme"].default: m for m in get_args(get_args(Time)[0])}
+"""Scheme name -> its model class."""
+NODAL_CONVECTION = frozenset({"ale_bdf2", "generalized_alpha"})
+"""The schemes with the convection in the matrix (nodal values along the mesh; no back-tracking)."""
