@@ -7,7 +7,7 @@ from mpi4py import MPI
 from cosserat_fsi import compat
 from cosserat_fsi.geometry import SchaeferTurek, build_msh
 from cosserat_fsi.scheme import _kernels, point_location
-from cosserat_fsi.scheme.back_tracking_nodes import Characteristics
+from cosserat_fsi.scheme.back_tracking_nodes import BackTrackingNodes
 from cosserat_fsi.scheme.point_location import PointLocator, eval_at, evaluate, neighbour_table, probe
 
 import dolfinx
@@ -90,7 +90,7 @@ def test_compiled_backtracking_equals_numpy(tmp_path, monkeypatch):
     u.interpolate(lambda x: np.vstack([4 * x[1] * (0.41 - x[1]) / 0.41**2 + 0.3 * np.sin(7 * x[0]),
                                        0.5 * np.cos(5 * x[0] + 3 * x[1])]))
     p.interpolate(lambda x: np.exp(x[0]) * np.sin(4 * x[1]))
-    chars = Characteristics(V, comm=comm)
+    chars = BackTrackingNodes(V, comm=comm)
     x, hint = chars.quadrature_nodes(4)
     h = 0.41 / 8  # ~ the cell size of level 0
     rng = np.random.default_rng(comm.rank)
@@ -224,7 +224,7 @@ def test_midpoint_feet_are_second_order_on_a_rotation(monkeypatch, compiled):
 
 
 def test_values_at_quadrature_nodes_compiled_equals_numpy(tmp_path, monkeypatch):
-    """Characteristics.at_quadrature_nodes: the compiled kernel = the numpy sum (bit for bit), vector and
+    """BackTrackingNodes.at_quadrature_nodes: the compiled kernel = the numpy sum (bit for bit), vector and
     scalar, and both = Function.eval at the quadrature points to round-off."""
     mesh = _mesh(tmp_path)
     V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))
@@ -232,7 +232,7 @@ def test_values_at_quadrature_nodes_compiled_equals_numpy(tmp_path, monkeypatch)
     u, p = dolfinx.fem.Function(V), dolfinx.fem.Function(S)
     u.interpolate(lambda x: np.vstack([np.sin(3 * x[0]) * x[1], x[0] ** 2 - x[1]]))
     p.interpolate(lambda x: np.cos(2 * x[0] + x[1]))
-    chars = Characteristics(V)
+    chars = BackTrackingNodes(V)
     x, cells = chars.quadrature_nodes(6)
     for f in (u, p):
         values = {}

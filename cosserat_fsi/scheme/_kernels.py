@@ -215,7 +215,7 @@ def _scalar_at(p, k, c, here, values, dofs):
 @_jit
 def at_reference_points(phi, dofs, values, bs, n_cells):
     """Values (n_cells·nq, bs) of a P2 field at the same reference points ``phi`` (nq, 6 basis values)
-    of every cell: Σ_k φ_k c_k in k order from 0.0 (``Characteristics.at_quadrature_nodes``)."""
+    of every cell: Σ_k φ_k c_k in k order from 0.0 (``BackTrackingNodes.at_quadrature_nodes``)."""
     nq = phi.shape[0]
     out = np.empty((n_cells * nq, bs))
     for c in range(n_cells):

@@ -1,5 +1,5 @@
 """The points the characteristics are traced back from: the nodes of the P2 spaces of u and ω, and the
-quadrature points of every cell, with the fields' values there (``Characteristics``).
+quadrature points of every cell, with the fields' values there (``BackTrackingNodes``).
 
 The feet of these points are located and evaluated by ``point_location``; this module gives their
 starting positions in the current (or an earlier) configuration, the nodal values, the values of a P2
@@ -17,7 +17,7 @@ from . import _kernels, point_location
 from .point_location import PointLocator, is_p2, p2_coefficients, reference_basis
 
 
-class Characteristics:
+class BackTrackingNodes:
     """Back-tracking on the nodes of a P2 space V (vector; bs = gdim) and, optionally, a scalar P2 space S.
 
     All local nodes (owned and ghost) are tracked, so every local node of S has its value without a

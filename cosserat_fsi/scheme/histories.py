@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import compat
 from . import _kernels, point_location
-from .back_tracking_nodes import Characteristics
+from .back_tracking_nodes import BackTrackingNodes
 from .point_location import PointLocator, evaluate, is_p2, reference_basis
 from .state import State
 
@@ -41,7 +41,7 @@ class Histories:
             self.micro_rotation = dolfinx.fem.Function(
                 sp.space("micro_rotation") if self.omega_apart
                 else compat.quadrature_space(mesh, self.degree, (3,) if mesh.geometry.dim == 3 else ()))
-        self.chars = Characteristics(V, sp.space("micro_rotation") if self.micro else None, comm)
+        self.chars = BackTrackingNodes(V, sp.space("micro_rotation") if self.micro else None, comm)
         self.earlier_locators = (self.chars.locator, self.chars.locator)
         self._shift, self._shift_current = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
 

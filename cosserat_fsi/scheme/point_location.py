@@ -76,7 +76,7 @@ class PointLocator:
             self.Jinv = np.linalg.inv(J)
         self.Jinv_flat = np.ascontiguousarray(self.Jinv.reshape(-1, tdim * tdim))
         self.x0 = np.ascontiguousarray(self.x0)
-        self.quadrature_cache = {}  # degree -> back_tracking_nodes.Characteristics.quadrature_nodes here
+        self.quadrature_cache = {}  # degree -> back_tracking_nodes.BackTrackingNodes.quadrature_nodes here
 
     @property
     def tree(self):
