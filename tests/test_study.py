@@ -45,7 +45,9 @@ def test_study_runs_resumes_and_reports(run_cli, tmp_path, repo_root):
 
 
 @pytest.mark.parametrize("text, expected", [
-    ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{time.dt: [0.1, -1]}}\n", "time.dt: must be > 0"),
+    ("name: x\nconfig: {cfg}\nobservables: [c_D]\nbase: {{time.scheme: characteristics1, time.t_end: 1}}\n"
+     "ladder: {{time.dt: [0.1, -1]}}\n", "time.dt: must be > 0"),
+    ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{time.dt: [0.1]}}\n", "time.dt: not used by scheme steady"),
     ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{time.dtt: [0.1]}}\n", "time.dtt: unknown key"),
     ("name: x\nconfig: nope.yaml\nobservables: [c_D]\nladder: {{time.dt: [0.1]}}\n", "config: nope.yaml not found"),
     ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{}}\n", "ladder: "),
