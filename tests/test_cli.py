@@ -119,7 +119,8 @@ def fake_runner(monkeypatch):
 
 def test_run_calls_runner_and_logs(tmp_path, fake_runner, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["run", str(CONFIG), "--set", "time.t_end=1", "--no-progress"]) == 0
+    stepping = "time={scheme: characteristics1, dt: 0.5, t_end: 1}"
+    assert cli.main(["run", str(CONFIG), "--set", stepping, "--no-progress"]) == 0
     (scene, out, progress), = fake_runner.calls
     assert out == Path("runs") / "turek_hron_cfd1" and progress is False
     assert scene.time.t_end == 1.0

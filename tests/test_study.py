@@ -81,11 +81,12 @@ def test_extra_runs_follow_the_ladder(tmp_path, repo_root):
     from cosserat_fsi.app.study import _combinations, load_study
 
     study = load_study(_study(tmp_path, f"name: v\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D]\n"
-                                        "base: {time.t_end: 0.3}\nladder: {time.dt: [0.1, 0.05]}\n"
+                                        "base: {time.t_end: 0.3, time.scheme: characteristics1}\n"
+                                        "ladder: {time.dt: [0.1, 0.05]}\n"
                                         "extra: {c2-fine: {time.dt: 0.01, time.scheme: characteristics2}}\n"))
     runs = _combinations(study)
     assert [run_id for _, run_id in runs] == ["dt0.1", "dt0.05", "c2-fine"]
-    assert runs[2][0] == {"time.t_end": 0.3, "time.dt": 0.01, "time.scheme": "characteristics2"}
+    assert runs[2][0] == {"time.t_end": 0.3, "time.scheme": "characteristics2", "time.dt": 0.01}
 
 
 def test_bad_variant_exits_2(run_cli, tmp_path, repo_root):
