@@ -1,4 +1,4 @@
-"""`make extremes`: numerical stability at the edges of parameter space (issue 5, item 4).
+"""`make extremes`: numerical stability at the edges of parameter space.
 
 Each case is the Turek–Hron FSI3 scene on the coarsest mesh (level 0, 2 s of flow with a 0.5 s ramp)
 with one parameter pushed to an extreme. A case passes when it either completes with finite, bounded
@@ -27,10 +27,10 @@ os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
 CONFIG = "configs/turek_hron_fsi3.yaml"
 BASE = {"geometry.level": 0, "time.dt": 0.005, "time.t_end": 2.0, "inflow.ramp_time": 0.5,
         "output.fields": False, "output.checkpoint_every": 0,
-        # the seed's scheme, as when docs/extremes.md was written (FSI3's default is BDF2 + ale since issue 12)
-        "time.scheme": "characteristics1", "time.convection": "characteristics"}
+        # the seed's scheme, as when docs/extremes.md was written (FSI3 ships ale_bdf2)
+        "time.scheme": "characteristics1"}
 MICRO = {"micropolar.lambda1": 1.0e-4, "micropolar.inertia": 1.0e-4}
-# issue 13's large deformations: the shipped scene files themselves (L1, BDF2, δt 0.002, remeshing at
+# large deformations: the shipped scene files themselves (L1, BDF2, δt 0.002, remeshing at
 # q < 0.35), run to their end on 2 MPI ranks (their serial runs are in docs/performance.md)
 LARGE = {"large-heavy-soft": ("configs/turek_hron_fsi3_heavy_soft.yaml: ρ_s = 10⁴, μ_s = 5·10⁵, Ū = 1, t = 15",
                               "configs/turek_hron_fsi3_heavy_soft.yaml"),
@@ -68,7 +68,7 @@ WHY = {
     "mu_r-1000": "the ω equation and its coupling are implicit, so a large μ_r only stiffens the system",
     "inertia-1e-6": "ρI/δt becomes negligible: ω is quasi-static, an algebraic constraint the monolithic "
                     "solve handles",
-    "large-heavy-soft": "issue 13's stopped run (harmonic mesh motion: exit 3 at t = 7.966); the biharmonic "
+    "large-heavy-soft": "the run that once stopped (harmonic mesh motion: exit 3 at t = 7.966); the biharmonic "
                         "extension and remeshing keep the cells valid through the saturated swing (lowest q 0.340; "
                         "5,445 cells, 5,523–5,617 after the remeshes)",
     "large-soft-fast": "many centimetres of tip motion at the benchmark inflow, a 6.7 Hz swing; the biharmonic "
@@ -132,7 +132,7 @@ def write_report(runs: Path, out: Path) -> Path:
              "Written by `make extremes` (`python campaigns/extremes.py`). Each case is "
              f"`{CONFIG}` on the coarsest mesh with "
              f"`{' '.join(app_cases.override(k, v) for k, v in BASE.items())}` and one "
-             "parameter pushed to an extreme; the `large-*` cases of issue 13 are their scene files as shipped, "
+             "parameter pushed to an extreme; the `large-*` cases are their scene files as shipped, "
              f"run to their end on {LARGE_RANKS} MPI ranks. *ok* means: completed with "
              "finite energy below "
              f"{ENERGY_BOUND:g} × ½ ρ_f Ū² |channel| (the scale column divides by that), or stopped with exit "

@@ -1,4 +1,4 @@
-"""Issue 12: δt ladders of FSI3 uy(A) and CFD3 lift — run the cases (or read finished ones) and write a table.
+"""δt ladders of FSI3 uy(A) and CFD3 lift — run the cases (or read finished ones) and write a table.
 
 Each case is `cosserat-fsi run CONFIG --set ...` into ``<runs>/<id>``; a case whose timeseries.csv reaches
 its t_end is not run again. The table gives the periodic amplitude and frequency of the last full period
@@ -10,7 +10,7 @@ two), the observed order of the amplitude against the finest run of each ladder,
     python campaigns/fsi_time_ladder.py --read DIR [DIR ...]      # analyse finished runs only
     python campaigns/fsi_time_ladder.py --continue DIR --seconds 1.5 --set time.quadrature_degree=12 --out D
         # diagnosis: continue DIR's checkpoint with other options (a restart refuses them), also another δt
-    python campaigns/fsi_time_ladder.py --continuations cfd3-dt --from DIR --runs R --md T.md  # session 12's
+    python campaigns/fsi_time_ladder.py --continuations cfd3-dt --from DIR --runs R --md T.md  # CONTINUATIONS
     python campaigns/fsi_time_ladder.py --foot-map DIR --dts 0.0025 0.002  # the foot maps in DIR's flow
     python campaigns/fsi_time_ladder.py --averages DIR [DIR ...]  # uy(A) averaged over the last 2 s
     python campaigns/fsi_time_ladder.py --oscillator 0.5 --frequency 5.3  # generalised-α's own phase error
@@ -38,8 +38,8 @@ FSI3_SEED = ("configs/turek_hron_fsi3.yaml", {"geometry.level": "seed", "time.sc
 FSI3_L1 = ("configs/turek_hron_fsi3.yaml", {"time.scheme": "characteristics2"})
 CFD3_L1 = ("configs/turek_hron_cfd3.yaml", {})
 DTS = (0.01, 0.005, 0.0025, 0.00125)
-ALE = {"time.convection": "ale", "time.corrector_passes": 0}
-CHARS = {"time.convection": "characteristics", "time.corrector_passes": 0, "time.scheme": "characteristics2"}
+ALE = {"time.scheme": "ale_bdf2", "time.corrector_passes": "null"}  # null: the config's passes removed (0)
+CHARS = {"time.scheme": "characteristics2", "time.corrector_passes": "null"}
 LADDERS = {
     "fsi3-seed": [(f"fsi3-seed-c2-corr1-dt{dt}", *FSI3_SEED, {"time.corrector_passes": 1, "time.dt": dt,
                                                             "time.t_end": 7.0}) for dt in DTS],
@@ -47,31 +47,31 @@ LADDERS = {
                                                         "time.t_end": 7.0}) for dt in DTS],
     "cfd3": [(f"cfd3-L1-c2-dt{dt}", *CFD3_L1, {**CHARS, "time.dt": dt, "time.t_end": 16.0})
              for dt in (0.005, 0.0025, 0.002, 0.001)],
-    # session 13: time.convection: ale (BDF2 of the nodal values + semi-implicit convection relative to the mesh)
+    # ale_bdf2: BDF2 of the nodal values + semi-implicit convection relative to the mesh
     "fsi3-seed-ale": [(f"fsi3-seed-ale-dt{dt}", *FSI3_SEED, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],
     "fsi3-L1-ale": [(f"fsi3-L1-ale-dt{dt}", *FSI3_L1, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],
     "cfd3-ale-picard": [(f"cfd3-L1-ale-picard-dt{dt}", *CFD3_L1, {"time.dt": dt, "time.t_end": 10.0})
-                        for dt in (0.002,)],  # the shipped CFD3 scene (ale + one Picard pass)
-    # session 14: generalised-α (ρ∞ = 0.5) on the nodal values, convection relative to the mesh
+                        for dt in (0.002,)],  # the shipped CFD3 scene (ale_bdf2 + one Picard pass)
+    # generalised-α (ρ∞ = 0.5) on the nodal values, convection relative to the mesh
     "fsi3-seed-ga": [(f"fsi3-seed-ga-dt{dt}", *FSI3_SEED, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
                                                           "time.t_end": 8.0}) for dt in DTS],
     "fsi3-L1-ga": [(f"fsi3-L1-ga-dt{dt}", *FSI3_L1, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
                                                     "time.t_end": 8.0}) for dt in DTS],
     "cfd3-ga": [(f"cfd3-L1-ga-dt{dt}", *CFD3_L1, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
                                                   "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
-    "cfd3-ale": [(f"cfd3-L1-ale-dt{dt}", *CFD3_L1, {**ALE, "time.scheme": "characteristics2", "time.dt": dt,
-                                                    "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
-    # sessions 15–16: generalised-α with corrector passes (the mesh and the solid stress re-placed at the
-    # predicted t^{n+α_f}; session 16: the solid's continuity pulled back from Ω^{n+1})
-    **{f"fsi3-{mesh}-ga-c{passes}": [(f"{mesh}-c{passes}-dt{dt}", "configs/turek_hron_fsi3.yaml",
+    "cfd3-ale": [(f"cfd3-L1-ale-dt{dt}", *CFD3_L1, {**ALE, "time.dt": dt, "time.t_end": 16.0})
+                 for dt in (0.005, 0.0025, 0.002, 0.001)],
+    # generalised-α with corrector passes (the mesh and the solid stress re-placed at the predicted
+    # t^{n+α_f}, the solid's continuity pulled back from Ω^{n+1})
+    **{f"fsi3-{mesh}-ga-c{passes}": [(f"{mesh}-c{passes}-dt{dt}", "configs/turek_hron_fsi3.yaml", {},
                                       {**ALE, "geometry.level": level, "time.scheme": "generalized_alpha",
                                        "time.corrector_passes": passes, "time.dt": dt, "time.t_end": 8.0})
                                      for dt in DTS]
        for mesh, level in (("seed", "seed"), ("L1", 1)) for passes in (1, 2)},
-    # session 17: the same with the volume correction undone over a fixed τ = 0.01 s (≥ every δt of the
-    # ladder) instead of over max(δt, τ = 2 ms): the one-step correction's strength grows like 1/δt, which
-    # changes the discrete problem with δt (docs/performance.md, "Issue 12, session 17")
-    **{f"fsi3-{mesh}-ga-c2-tau": [(f"tau0.01-{mesh}-dt{dt}", "configs/turek_hron_fsi3.yaml",
+    # the same with the volume correction undone over a fixed τ = 0.01 s (≥ every δt of the ladder)
+    # instead of over max(δt, τ = 2 ms): the one-step correction's strength grows like 1/δt, which changes
+    # the discrete problem with δt (docs/performance.md)
+    **{f"fsi3-{mesh}-ga-c2-tau": [(f"tau0.01-{mesh}-dt{dt}", "configs/turek_hron_fsi3.yaml", {},
                                    {**ALE, "geometry.level": level, "time.scheme": "generalized_alpha",
                                     "time.corrector_passes": 2, "solid.volume_correction_time": 0.01,
                                     "time.dt": dt, "time.t_end": 8.0})
@@ -94,28 +94,13 @@ def oscillator_errors(rho_infinity: float, omega_dt: float) -> tuple[float, floa
     return float(np.angle(root) / omega_dt - 1.0), float(abs(root) ** (2.0 * np.pi / omega_dt))
 
 
-# Issue 12, session 12: continuations of a developed checkpoint (--continuations NAME --from DIR): (case, seconds,
-# overrides, the case whose checkpoint it continues or None for DIR). cfd3-*: DIR = a CFD3 L1 BDF2 run at
-# δt = 0.0025 with a checkpoint at t = 15; fsi3-*: DIR = FSI3 seed, BDF2 extrapolated, δt = 0.004, checkpoint at
-# t = 5 (run it to t_end = 5.004 with output.checkpoint_every = 1250: the last step writes no checkpoint).
-_CORR = ["time.solve_configuration=bdf_base", "time.corrector_passes=1"]
+# Continuations of a developed checkpoint (--continuations NAME --from DIR): (case, seconds, overrides, the
+# case whose checkpoint it continues or None for DIR). DIR = a CFD3 L1 characteristics2 run at δt = 0.0025
+# with a checkpoint at t = 15.
 CONTINUATIONS = {
-    "cfd3-feet": [(f"cfd3-{foot}-q{q}", 2.0, [f"time.foot={foot}", f"time.quadrature_degree={q}"], None)
-                  for q in (8, 12) for foot in ("euler", "midpoint")]
-    + [("cfd3-midpoint-q8-long", 4.0, ["time.foot=midpoint"], None)],
-    "cfd3-dt": [(f"cfd3-{foot}-dt{dt}", 2.0, [f"time.dt={dt}", f"time.foot={foot}"], None)
-                for foot, dts in (("euler", (0.00225, 0.002, 0.00125, 0.000625)), ("midpoint", (0.002, 0.00125)))
-                for dt in dts] + [
-               ("cfd3-euler-dt0.00125-4s", 3.5, ["time.dt=0.00125"], None),
-               ("cfd3-back-to-0.0025", 2.5, ["time.dt=0.0025"], "cfd3-euler-dt0.00125-4s")],
-    "fsi3-dt": [(f"fsi3-extrap-dt{dt}", seconds, [f"time.dt={dt}"], None)
-                for dt, seconds in ((0.002, 1.5), (0.0025, 1.5), (0.003, 1.5), (0.0035, 2.0), (0.0045, 1.5),
-                                    (0.005, 2.0), (0.0055, 1.5))] + [
-               ("fsi3-extrap-dt0.002-more", 1.5, [], "fsi3-extrap-dt0.002"),
-               ("fsi3-extrap-back-to-0.004", 1.5, ["time.dt=0.004"], "fsi3-extrap-dt0.005"),
-               ("fsi3-corr1-dt0.0045", 1.5, ["time.dt=0.0045"] + _CORR, None)],
-    "cfd3-cost": [(f"cost-cfd3-{foot}-q{q}", 0.25, [f"time.foot={foot}", f"time.quadrature_degree={q}"], None)
-                  for foot, q in (("euler", 8), ("midpoint", 8), ("euler", 12), ("midpoint", 12))],
+    "cfd3-dt": [(f"cfd3-euler-dt{dt}", 2.0, [f"time.dt={dt}"], None) for dt in (0.00225, 0.002, 0.00125, 0.000625)]
+    + [("cfd3-euler-dt0.00125-4s", 3.5, ["time.dt=0.00125"], None),
+       ("cfd3-back-to-0.0025", 2.5, ["time.dt=0.0025"], "cfd3-euler-dt0.00125-4s")],
 }
 
 
@@ -284,7 +269,7 @@ def foot_map(run_dir: Path, dts: list[float]) -> str:
 
 def area_defect(run_dir: Path) -> str:
     """The solid's area defect at ``run_dir``'s checkpoint: mean and rms of ln J over the solid cells,
-    J = 1/det(I − ∇d) (what the volume correction undoes; session 17)."""
+    J = 1/det(I − ∇d) (what the volume correction undoes)."""
     import dolfinx
     import ufl
     from mpi4py import MPI
@@ -362,7 +347,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--ladder", choices=sorted(LADDERS))
     p.add_argument("--averages", nargs="+", type=Path, metavar="DIR",
-                   help="uy(A) averaged over the last 2 s of each finished FSI run (session 13)")
+                   help="uy(A) averaged over the last 2 s of each finished FSI run")
     p.add_argument("--runs", type=Path, default=ROOT / "runs" / "issue12")
     p.add_argument("--read", nargs="*", type=Path, default=[])
     p.add_argument("--md", type=Path)

@@ -1,4 +1,4 @@
-"""How far each mesh motion carries a bent flag (issue 13, item 1; measurement script, not a test).
+"""How far each mesh motion carries a bent flag (a measurement script, not a test).
 
     python campaigns/mesh_motion.py [--levels seed 1] [--step 0.0025] [--max 0.15] [--json FILE]
     mpirun -n 2 python campaigns/mesh_motion.py ...

@@ -1,5 +1,5 @@
 """Direct (MUMPS) against iterative (FGMRES + Schur fieldsplit + AMG) per time step, on 2D and 3D ladders
-(issue 15; docs/performance.md, "Direct vs iterative").
+(docs/performance.md, "Direct vs iterative").
 
     python campaigns/solver_ladder.py [--quick] [--ranks 1 2] [--out docs/runs/solver_ladder.json]
 

@@ -33,7 +33,7 @@ def _folder(tmp_path, summary=None, checkpoint=False):
 ])
 def test_status(tmp_path, repo_root, summary, checkpoint, expected):
     out = _folder(tmp_path, summary, checkpoint)
-    case = Case(repo_root / CONFIG, out, {"time.t_end": 0.5, "time.dt": 0.05})
+    case = Case(repo_root / CONFIG, out, {"time.scheme": "characteristics1", "time.t_end": 0.5, "time.dt": 0.05})
     assert status(case) == expected
 
 

@@ -27,7 +27,17 @@ def out_dir(tmp_path):
 
 BAD_RUNS = {
     "unknown_key": (["--set", "fluid.muu=1"], "error: fluid.muu: unknown key (did you mean 'mu'?)"),
-    "bad_value": (["--set", "time.dt=-0.1"], "error: time.dt: must be > 0 (got -0.1)"),
+    "bad_value": (["--set", "time={scheme: characteristics1, dt: -0.1, t_end: 1}"],
+                  "error: time.dt: must be > 0 (got -0.1)"),
+    "dt_on_steady": (["--set", "time.dt=0.01"], "error: time.dt: not used by scheme steady (only for characteristics1, "
+                     "characteristics2, ale_bdf2, generalized_alpha)"),
+    "missing_scheme": (["--set", "time.scheme=null"], "error: time.scheme: missing key (one of characteristics1, "
+                       "characteristics2, ale_bdf2, generalized_alpha, steady)"),
+    "removed_key": (["--set", "time.convection=ale"], "error: time.convection: unknown key (removed: "),
+    "steady_on_time_stepping": (["--set", "time={scheme: ale_bdf2, dt: 0.01, t_end: 1}", "--set", "time.scheme=steady"],
+                                "error: time.dt: not used by scheme steady"),
+    "corrector_on_first_order": (["--set", "time={scheme: characteristics1, dt: 0.01, t_end: 1, corrector_passes: 1}"],
+                                 "error: time.corrector_passes: not used by scheme characteristics1"),
     "bad_set_syntax": (["--set", "time.dt"], "error: --set time.dt: expected dotted.key=value"),
     "unknown_option": (["--bogus"], "error: cosserat-fsi: unrecognized arguments: --bogus"),
     "mismatch": (["--set", "benchmark=schaefer_turek_2d1"], "error: benchmark: schaefer_turek_2d1 needs"),
@@ -109,7 +119,8 @@ def fake_runner(monkeypatch):
 
 def test_run_calls_runner_and_logs(tmp_path, fake_runner, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["run", str(CONFIG), "--set", "time.t_end=1", "--no-progress"]) == 0
+    stepping = "time={scheme: characteristics1, dt: 0.5, t_end: 1}"
+    assert cli.main(["run", str(CONFIG), "--set", stepping, "--no-progress"]) == 0
     (scene, out, progress), = fake_runner.calls
     assert out == Path("runs") / "turek_hron_cfd1" and progress is False
     assert scene.time.t_end == 1.0
@@ -130,7 +141,8 @@ def test_mesh_prints_path_and_counts(tmp_path, monkeypatch, capsys):
     pytest.importorskip("gmsh")
     monkeypatch.setattr(geometry, "default_cache_dir", lambda: tmp_path)
     config = tmp_path / "cavity.yaml"
-    config.write_text("geometry: {name: square, level: 0}\nfluid: {rho: 1, mu: 0.01}\ntime: {dt: 0.1, t_end: 1}\n")
+    config.write_text("geometry: {name: square, level: 0}\nfluid: {rho: 1, mu: 0.01}\n"
+                      "time: {scheme: characteristics1, dt: 0.1, t_end: 1}\n")
     assert cli.main(["mesh", str(config), "--set", "geometry.length=2"]) == 0
     path, counts = capsys.readouterr().out.strip().rsplit(": ", 1)
     assert Path(path).parent == tmp_path and Path(path).exists()

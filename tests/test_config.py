@@ -9,16 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from cosserat_fsi.config import Scene, dump_resolved, load_scene, yaml_load
+from cosserat_fsi.config import NODAL_CONVECTION, TIME_SCHEMES, Scene, Solver, dump_resolved, load_scene, yaml_load
 from cosserat_fsi.errors import InputError
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = sorted((REPO / "configs").glob("*.yaml"))
+EXAMPLES = sorted((REPO / "examples").rglob("*.yaml"))
 BASE = """\
 geometry: {name: turek_hron, level: 1, flag: rigid}
 fluid: {rho: 1000.0, mu: 1.0}
 inflow: {u_mean: 0.2}
-time: {dt: 0.01, t_end: 1.0}
+time: {scheme: characteristics1, dt: 0.01, t_end: 1.0}
 """
 
 
@@ -49,26 +50,10 @@ BAD = [
     ("dt_zero", None, ["time.dt=0"], "time.dt: must be > 0 (got 0)"),
     ("dt_negative", None, ["time.dt=-0.1"], "time.dt: must be > 0 (got -0.1)"),
     ("t_end_below_dt", None, ["time.t_end=0.001"], "time.t_end: must be >= time.dt"),
-    ("consistent_on_extrapolated", None, ["time.solid_linearisation=consistent",
-                                          "time.solve_configuration=extrapolated"],
-     "time.solid_linearisation: 'consistent' linearises around the BDF2 base configuration"),
-    ("corrector_on_first_order", None, ["time.corrector_passes=1"],
-     "time.corrector_passes: needs time.scheme 'characteristics2' and a solid"),
-    ("midpoint_foot_on_first_order", None, ["time.foot=midpoint"],
-     "time.foot: 'midpoint' needs time.scheme 'characteristics2'"),
-    ("ale_with_midpoint_foot", None, ["time.scheme=characteristics2", "time.convection=ale", "time.foot=midpoint"],
-     "time.foot: not used with time.convection 'ale' (got 'midpoint')"),
-    ("ale_steady", None, ["time.scheme=steady", "time.convection=ale"],
-     "time.convection: 'ale' needs a time-dependent scheme (got steady)"),
-    ("generalized_alpha_without_ale", None, ["time.scheme=generalized_alpha"],
-     "time.scheme: 'generalized_alpha' needs time.convection 'ale' (got 'characteristics')"),
-    ("rho_infinity_without_generalized_alpha", None, ["time.rho_infinity=0.5"],
-     "time.rho_infinity: only used with time.scheme 'generalized_alpha' (got scheme characteristics1)"),
-    ("rho_infinity_above_one", None, ["time.scheme=generalized_alpha", "time.convection=ale",
-                                      "time.rho_infinity=1.5"],
+    ("corrector_without_solid", None, ["time.scheme=characteristics2", "time.corrector_passes=1"],
+     "time.corrector_passes: needs a solid with scheme characteristics2"),
+    ("rho_infinity_above_one", None, ["time.scheme=generalized_alpha", "time.rho_infinity=1.5"],
      "time.rho_infinity: must be <= 1"),
-    ("convection_unknown", None, ["time.convection=upwind"],
-     "time.convection: must be one of characteristics, ale (got 'upwind')"),
     ("bad_geometry", None, ["geometry.name=foo"],
      "geometry.name: must be one of turek_hron, schaefer_turek, channel, square, flag, box, file, cube, duct, "
      "schaefer_turek_3d, turek_hron_3d (got 'foo')"),
@@ -85,8 +70,9 @@ BAD = [
     ("seed_on_channel", None, ["geometry.name=channel", "geometry.flag=null", "geometry.level=seed"],
      "geometry.level: 'seed' only for geometry turek_hron"),
     ("flag_on_channel", None, ["geometry.name=channel"], "geometry.flag: only for geometry turek_hron"),
-    ("bad_scheme", None, ["time.scheme=euler"], "time.scheme: must be one of characteristics1, characteristics2"),
-    ("steady_without_dt_unsteady", None, ["time.dt=null"], "time.dt: field required (for scheme characteristics1)"),
+    ("bad_scheme", None, ["time.scheme=euler"], "time.scheme: must be one of characteristics1, characteristics2, "
+     "ale_bdf2, generalized_alpha, steady (got 'euler')"),
+    ("time_stepping_without_dt", None, ["time.dt=null"], "time.dt: missing key"),
     ("bad_yaml", "fluid: {rho: 1,\ntime: [\n", [], "config.yaml: line 3: could not parse YAML"),
     ("duplicate_key", BASE + "time: {dt: 1}\n", [], "config.yaml: line 5: could not parse YAML (duplicate key 'time')"),
     ("top_level_list", "- 1\n- 2\n", [], "config.yaml: top level must be a mapping"),
@@ -116,10 +102,33 @@ BAD = [
     ("seed_on_flag", None, ["geometry={name: flag, level: seed}"],
      "geometry.level: 'seed' only for geometry turek_hron"),
     ("geometry_not_a_mapping", None, ["geometry=3"], "geometry: must be a mapping of keys (got 3)"),
+    # the time union: one model per scheme, chosen by scheme
+    ("time_without_scheme", BASE.replace("scheme: characteristics1, ", ""), [],
+     "time.scheme: missing key (one of characteristics1, characteristics2, ale_bdf2, generalized_alpha, steady)"),
+    ("dt_on_steady", None, ["time.scheme=steady"],
+     "time.dt: not used by scheme steady (only for characteristics1, characteristics2, ale_bdf2, generalized_alpha)"),
+    ("rho_infinity_on_characteristics2", None, ["time.scheme=characteristics2", "time.rho_infinity=0.5"],
+     "time.rho_infinity: only for scheme generalized_alpha (got scheme 'characteristics2')"),
+    ("quadrature_on_ale_bdf2", None, ["time.scheme=ale_bdf2", "time.quadrature_degree=6"],
+     "time.quadrature_degree: not used by scheme ale_bdf2 (only for characteristics1, characteristics2)"),
+    ("corrector_on_first_order", None, ["time.corrector_passes=1"],
+     "time.corrector_passes: not used by scheme characteristics1 (only for characteristics2, ale_bdf2, "
+     "generalized_alpha)"),
+    ("newton_rtol_on_ale_bdf2", None, ["time.scheme=ale_bdf2", "time.newton_rtol=1e-8"],
+     "time.newton_rtol: only for scheme steady (got scheme 'ale_bdf2')"),
+    ("dt_on_steady_yaml", BASE.replace("time: {scheme: characteristics1, dt: 0.01, t_end: 1.0}",
+                                       "time: {scheme: steady, dt: 0.01}"), [], "time.dt: not used by scheme steady"),
+    ("convection_removed", BASE.replace("t_end: 1.0}", "t_end: 1.0, convection: ale}"), [],
+     "time.convection: unknown key (removed: the scheme sets it, e.g. scheme ale_bdf2 for convection ale)"),
+    ("convection_removed_set", None, ["time.convection=ale"], "time.convection: unknown key (removed"),
+    *[(f"{key}_removed", BASE.replace("t_end: 1.0}", f"t_end: 1.0, {key}: {value}}}"), [f"time.scheme={scheme}"],
+       f"time.{key}: unknown key") for key, value, scheme in (
+        ("foot", "midpoint", "characteristics2"), ("solid_linearisation", "consistent", "characteristics2"),
+        ("solve_configuration", "extrapolated", "characteristics2"), ("characteristics", "nodes", "characteristics1"))],
     ("body_force_length", None, ["fluid.body_force=[1]"], "fluid.body_force: must have 2 entries"),
     ("body_force_item", None, ["fluid.body_force=[1, x]"], "fluid.body_force[1]: must be a number"),
     ("body_force_3_in_2d", None, ["fluid.body_force=[0, 1, 0]"], "fluid.body_force: needs 2 components"),
-    ("body_force_2_in_3d", None, ["geometry={name: cube}", "time.scheme=steady", "fluid.body_force=[0, 1]"],
+    ("body_force_2_in_3d", None, ["geometry={name: cube}", "time={scheme: steady}", "fluid.body_force=[0, 1]"],
      "fluid.body_force: needs 3 components for the 3D geometry cube"),
     ("body_couple_vector_in_2d", None, ["micropolar.body_couple=[0, 0, 1]"], "micropolar.body_couple: a number in 2D"),
     ("every_zero", None, ["output.every=0"], "output.every: must be >= 1"),
@@ -136,6 +145,36 @@ def test_bad_input_is_one_line_naming_the_key(tmp_path, text, overrides, expecte
     message = str(info.value).replace(str(tmp_path) + "/", "")
     assert "\n" not in message
     assert message.startswith(expected), message
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_scenes_validate(path):
+    assert load_scene(path).time.scheme in TIME_SCHEMES
+
+
+def test_set_null_removes_a_key_to_switch_scheme(tmp_path):
+    """``--set KEY=null`` removes the key (its default applies): the way to a scheme without that key."""
+    path = write(tmp_path, BASE.replace("scheme: characteristics1,", "scheme: ale_bdf2, corrector_passes: 2,"))
+    assert load_scene(path).time.corrector_passes == 2
+    scene = load_scene(path, ["time.scheme=characteristics1", "time.corrector_passes=null"])
+    assert scene.time.scheme == "characteristics1" and not hasattr(scene.time, "corrector_passes")
+    assert load_scene(path, ["time.scheme=characteristics2", "time.corrector_passes=null"]).time.corrector_passes == 0
+    steady = load_scene(path, ["time.scheme=steady", "time.dt=null", "time.t_end=null", "time.corrector_passes=null"])
+    assert (steady.time.dt, steady.time.t_end, steady.time.newton_rtol) == (1.0, 1.0, 1e-10)
+    assert "dt" not in steady.to_yaml()
+    assert load_scene(path, ["solid.mesh_motion.remesh=null"]) == load_scene(path)  # nothing to remove: no-op
+    with pytest.raises(InputError, match=r"^time\.corrector_passes: not used by scheme characteristics1"):
+        load_scene(path, ["time.scheme=characteristics1"])
+
+
+def test_time_schemes_and_reuse_default():
+    assert list(TIME_SCHEMES) == ["characteristics1", "characteristics2", "ale_bdf2", "generalized_alpha", "steady"]
+    assert set(NODAL_CONVECTION) == {"ale_bdf2", "generalized_alpha"}
+    solver = Solver()
+    assert solver.reuses_factorization(True, False) and not solver.reuses_factorization(True, True)
+    assert not solver.reuses_factorization(False, False)
+    forced = Solver(reuse_factorization=True)
+    assert forced.reuses_factorization(False, True) and not forced.reuses_factorization(False, False)
 
 
 def test_missing_file(tmp_path):
@@ -156,7 +195,7 @@ def test_defaults_and_properties(tmp_path):
     assert scene.inflow.profile == "parabolic" and scene.time.scheme == "characteristics1"
     assert (scene.has_inflow, scene.has_solid, scene.has_micropolar) == (True, False, False)
     channel = load_scene(write(tmp_path, "geometry: {name: channel}\nfluid: {rho: 1, mu: 1}\n"
-                                         "time: {dt: 0.1, t_end: 1}\n"))
+                                         "time: {scheme: characteristics1, dt: 0.1, t_end: 1}\n"))
     assert (channel.geometry.length, channel.geometry.height) == (1.0, 1.0) and not hasattr(channel.geometry, "flag")
     assert channel.geometry.msh_params() == {"length": 1.0, "height": 1.0}
     assert not channel.has_inflow
@@ -199,7 +238,7 @@ def test_loading_a_scene_imports_no_heavy_modules(tmp_path):
 
 
 def test_set_reaches_into_named_boundaries(repo_root):
-    """--set boundaries.NAME.KEY=... (issue 17): a mapping of named sections takes any name, then its keys."""
+    """--set boundaries.NAME.KEY=...: a mapping of named sections takes any name, then its keys."""
     flap = repo_root / "examples" / "perpendicular_flap" / "flap.yaml"
     scene = load_scene(flap, ["boundaries.inlet.value=['5*min(t, 1)', 0]", "boundaries.outlet.type=no_slip"])
     assert scene.boundaries["inlet"].value == ["5*min(t, 1)", 0] and scene.boundaries["outlet"].type == "no_slip"

@@ -40,19 +40,18 @@ def _wobble(X, t):
     return 0.08 * np.sin(2 * np.pi * t / 0.2)[None] * np.column_stack([bump, -bump * X[:, 0]])
 
 
-@pytest.mark.parametrize("scheme, convection", [("characteristics1", "characteristics"),
-                                                ("characteristics1", "ale"), ("generalized_alpha", "ale")])
-def test_free_stream_is_preserved_under_mesh_motion(scheme, convection):
+@pytest.mark.parametrize("scheme", ["characteristics1", "ale_bdf2", "generalized_alpha"])
+def test_free_stream_is_preserved_under_mesh_motion(scheme):
     """A uniform flow stays uniform to round-off on a mesh that moves independently of the flow."""
     scene = validate_scene({"geometry": {"name": "square", "level": 1}, "fluid": {"rho": 1.0, "mu": 0.01},
-                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": scheme, "convection": convection}})
+                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": scheme}})
     sim, _ = _run(scene, exact=Uniform(), prescribed_motion=_wobble)
     u = sim.velocity.x.array.reshape(-1, 2)
     assert sim.motion.displacement.x.array.std() > 0  # the mesh did move
     assert np.abs(u - Uniform.U).max() < 1e-10
 
 
-def _taylor_green_error(scheme, dt, motion, convection="characteristics", after_move=False):
+def _taylor_green_error(scheme, dt, motion, after_move=False):
     """L² velocity error of the Taylor–Green vortex at T = 1, measured on the mesh the last step was
     solved on, before it moves on, or (``after_move``) on Ω(T) after it moved (generalised-α solves on
     the configuration of t^{n+α_f}, not of t^{n+1})."""
@@ -63,7 +62,7 @@ def _taylor_green_error(scheme, dt, motion, convection="characteristics", after_
     T, exact = 1.0, TaylorGreen(0.1)
     scene = validate_scene({"geometry": {"name": "square", "level": 2, "length": float(np.pi)},
                             "fluid": {"rho": 1.0, "mu": 0.1},
-                            "time": {"dt": dt, "t_end": T, "scheme": scheme, "convection": convection}})
+                            "time": {"dt": dt, "t_end": T, "scheme": scheme}})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
     sim = Simulation(scene, mesh, ct, ft, exact=exact, prescribed_motion=motion)
     n, error = sim.steps_to(T), []
@@ -91,7 +90,7 @@ def test_generalized_alpha_on_a_moving_mesh_is_second_order():
     2.1162e-3, 5.2881e-4, 1.3393e-4; rates 2.00, 1.98). With div u^{n+1} = 0 imposed there instead (the
     scheme of session 14) it was first order: 2.379e-2, 1.189e-2, 5.946e-3 (rates 1.00, 1.00), which
     made FSI3 first order in δt (docs/performance.md, issue 12, session 15)."""
-    errors = np.array([_taylor_green_error("generalized_alpha", dt, _tg_wobble, "ale", after_move=True)
+    errors = np.array([_taylor_green_error("generalized_alpha", dt, _tg_wobble, after_move=True)
                        for dt in (0.05, 0.025, 0.0125)])
     rates = np.log2(errors[:-1] / errors[1:])
     assert np.all((rates > 1.8) & (rates < 2.3)), (errors, rates)
@@ -99,21 +98,21 @@ def test_generalized_alpha_on_a_moving_mesh_is_second_order():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("convection", ["characteristics", "ale"])
-def test_bdf2_on_a_moving_mesh_is_second_order(convection):
+@pytest.mark.parametrize("scheme", ["characteristics2", "ale_bdf2"])
+def test_bdf2_on_a_moving_mesh_is_second_order(scheme):
     """BDF2 characteristics on a mesh that moves independently of the flow: the Taylor–Green errors equal
     the fixed-mesh ones (measured: 1.1478e-2, 2.553e-3, 5.99e-4 for δt = 0.2, 0.1, 0.05 on both; rates
     2.17, 2.09). The feet are located in the configurations the histories were computed on; shifting them
     by the mesh velocity instead (the first-order scheme's ALE correction) is O(δt²) per step.
-    ``time.convection: ale`` (BDF2 of the nodal values + convection relative to the mesh) is second order
+    ``time.scheme: ale_bdf2`` (BDF2 of the nodal values + convection relative to the mesh) is second order
     too (measured 2.4188e-1, 4.4579e-2, 7.4346e-3: rates 2.44, 2.58) but its error follows the mesh's own
     motion, fast here, not the flow's: 100× the fixed-mesh ALE errors (1.3057e-3, 3.1204e-4, 7.6533e-5,
     rates 2.07, 2.03; 9× below the characteristics' on the fixed mesh)."""
     dts = (0.2, 0.1, 0.05)
-    moving = np.array([_taylor_green_error("characteristics2", dt, _tg_wobble, convection) for dt in dts])
-    fixed = np.array([_taylor_green_error("characteristics2", dt, None, convection) for dt in dts])
+    moving = np.array([_taylor_green_error(scheme, dt, _tg_wobble) for dt in dts])
+    fixed = np.array([_taylor_green_error(scheme, dt, None) for dt in dts])
     rates = np.log2(moving[:-1] / moving[1:])
-    if convection == "ale":  # second order, but the nodes' BDF2 follows the mesh's fast motion (w up to 1.6)
+    if scheme == "ale_bdf2":  # second order, but the nodes' BDF2 follows the mesh's fast motion (w up to 1.6)
         assert np.all((rates > 1.8) & (rates < 2.9)), (moving, rates)
         assert np.all(moving > 10 * fixed), (moving, fixed)
         return
@@ -122,22 +121,19 @@ def test_bdf2_on_a_moving_mesh_is_second_order(convection):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options", [{}, {"solid_linearisation": "consistent"},
-                                     {"solve_configuration": "extrapolated"}, {"corrector_passes": 1},
-                                     {"convection": "ale"},
-                                     {"scheme": "generalized_alpha", "convection": "ale"},
-                                     {"scheme": "generalized_alpha", "convection": "ale", "corrector_passes": 1},
-                                     {"scheme": "generalized_alpha", "convection": "ale", "corrector_passes": 2}],
-                         ids=["seed", "consistent", "extrapolated", "corrector", "ale", "generalized_alpha",
+@pytest.mark.parametrize("options", [{}, {"corrector_passes": 1}, {"scheme": "ale_bdf2"},
+                                     {"scheme": "generalized_alpha"},
+                                     {"scheme": "generalized_alpha", "corrector_passes": 1},
+                                     {"scheme": "generalized_alpha", "corrector_passes": 2}],
+                         ids=["seed", "corrector", "ale", "generalized_alpha",
                               "generalized_alpha_corrector", "generalized_alpha_corrector2"])
 def test_solid_time_order(options):
     """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
     BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
     vertices, the stress linearised around d* = (4d^n − d^{n−1})/3 on the configuration X + d*) errors
     3.0e-5, 6.6e-6, 1.2e-6 for δt = 4e-3, 2e-3, 1e-3 (rates 2.18, 2.46; 2.14, 2.27 against δt = 2.5e-4);
-    first order at δt = 4e-3: 8.1e-4 (rates 1.07, 1.21 against its own δt = 2.5e-4 run). The options of
-    issue 12 keep the order: the consistent linearisation 3.1e-5, 6.6e-6, 1.1e-6 (rates 2.23, 2.55); the
-    extrapolated configuration 3.6e-5, 9.3e-6, 2.1e-6 (rates 1.95, 2.14)."""
+    first order at δt = 4e-3: 8.1e-4 (rates 1.07, 1.21 against its own δt = 2.5e-4 run). The other
+    second-order schemes and the corrector passes keep the order."""
     def uy_A(scheme, dt):
         scene = validate_scene({"geometry": {"name": "flag", "level": 0},
                                 "solid": {"rho": 1000.0, "mu_s": 2e6, "gravity": 2.0, "gravity_ramp_time": 0.2},
@@ -157,7 +153,7 @@ def test_solid_time_order(options):
 def _cfd1_drag(prescribed_motion=None, drop_mesh_velocity=False):
     scene = validate_scene({"benchmark": "turek_hron_cfd1", "geometry": {"name": "turek_hron", "flag": "rigid"},
                             "fluid": {"rho": 1000.0, "mu": 1.0}, "inflow": {"u_mean": 0.2},
-                            "time": {"dt": 0.02, "t_end": 1.0}})
+                            "time": {"scheme": "characteristics1", "dt": 0.02, "t_end": 1.0}})
     mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)
     sim = Simulation(scene, mesh, ct, ft, prescribed_motion=prescribed_motion)
     obs = Observables(sim)
@@ -198,7 +194,7 @@ def test_flag_free_vibration_matches_euler_bernoulli():
     mu_s, rho_s, L, h = 2.0e6, 1000.0, 0.35, 0.02
     scene = validate_scene({"geometry": {"name": "flag", "level": 0},
                             "solid": {"rho": rho_s, "mu_s": mu_s, "initial_velocity": [0.0, 0.01]},
-                            "time": {"dt": 0.002, "t_end": 1.0}})
+                            "time": {"scheme": "characteristics1", "dt": 0.002, "t_end": 1.0}})
     _, series = _run(scene)
     f_beam = 1.875**2 / (2 * np.pi * L**2) * np.sqrt(4 * mu_s * h**3 / 12 / (rho_s * h))
     t, y = series["t"], series["uy_A"]
@@ -213,7 +209,7 @@ def test_closed_box_energy_never_increases():
     increase from one step to the next (no inflow, no forcing: only dissipation)."""
     scene = validate_scene({"geometry": {"name": "box", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "solid": {"rho": 2.0, "mu_s": 50.0, "initial_velocity": [0.05, 0.02]},
-                            "time": {"dt": 0.01, "t_end": 1.0}})
+                            "time": {"scheme": "characteristics1", "dt": 0.01, "t_end": 1.0}})
     _, series = _run(scene)
     energy = series["energy_total"]
     assert energy[0] > 0 and energy[-1] < 0.9 * energy[0]
@@ -225,7 +221,8 @@ def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     and the output written so far kept."""
     cfg = tmp_path / "box.yaml"
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
-                   "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\ntime: {dt: 0.05, t_end: 1.0}\n")
+                   "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\n"
+                   "time: {scheme: characteristics1, dt: 0.05, t_end: 1.0}\n")
     out = tmp_path / "out"
     proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
     assert proc.returncode == 3, proc.stderr
@@ -242,7 +239,7 @@ def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
     cfg = tmp_path / "box.yaml"
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
                    "solid: {rho: 10.0, mu_s: 100.0, gravity: 2.0, mesh_motion: {wall_gap: 0.1}}\n"
-                   "time: {dt: 0.01, t_end: 2.0}\n")
+                   "time: {scheme: characteristics1, dt: 0.01, t_end: 2.0}\n")
     out = tmp_path / "out"
     proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
     assert proc.returncode == 3, proc.stderr
@@ -258,18 +255,16 @@ def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("scheme, convection, passes", [("characteristics1", "characteristics", 0),
-                                                        ("characteristics2", "characteristics", 0),
-                                                        ("characteristics2", "ale", 0), ("generalized_alpha", "ale", 0),
-                                                        ("generalized_alpha", "ale", 1),
-                                                        ("generalized_alpha", "ale", 2)])
-def test_fsi_serial_equals_parallel(scheme, convection, passes):
+@pytest.mark.parametrize("scheme, passes", [("characteristics1", 0), ("characteristics2", 0), ("ale_bdf2", 0),
+                                            ("generalized_alpha", 0), ("generalized_alpha", 1),
+                                            ("generalized_alpha", 2)])
+def test_fsi_serial_equals_parallel(scheme, passes):
     """Tip displacement, forces and energies of a short FSI run: COMM_WORLD (1 or 2 ranks) = COMM_SELF."""
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},
                             "fluid": {"rho": 1000.0, "mu": 1.0}, "solid": {"rho": 1000.0, "mu_s": 0.5e5},
                             "inflow": {"u_mean": 1.0, "ramp_time": 0.1},
-                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": scheme, "convection": convection,
-                                     "corrector_passes": passes}})
+                            "time": {"dt": 0.01, "t_end": 0.2, "scheme": scheme,
+                                     **({"corrector_passes": passes} if passes else {})}})
     _, parallel = _run(scene, MPI.COMM_WORLD)
     _, serial = _run(scene, MPI.COMM_SELF)
     for key in ("uy_A", "ux_A", "drag", "lift", "energy_total"):
@@ -292,7 +287,7 @@ def test_solid_area_is_kept_by_the_volume_correction(correction, relax):
     scene = validate_scene({"geometry": {"name": "flag", "level": 0},
                             "solid": {"rho": 1000.0, "mu_s": 2.0e6, "initial_velocity": [0.0, 1.0],
                                       "volume_correction": correction, "volume_correction_time": relax},
-                            "time": {"dt": 0.01, "t_end": 0.5}})
+                            "time": {"scheme": "characteristics1", "dt": 0.01, "t_end": 0.5}})
     sim, _ = _run(scene)
     area = sim.comm.allreduce(dolfinx.fem.assemble_scalar(
         compat.form(dolfinx.fem.Constant(sim.mesh, 1.0) * ufl.dx)), op=MPI.SUM)
@@ -309,7 +304,8 @@ def test_reused_factorisation_matches_refactorising_every_step():
     for reuse in (True, False):
         scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},
                                 "fluid": {"rho": 1000.0, "mu": 1.0}, "solid": {"rho": 1000.0, "mu_s": 0.5e5},
-                                "inflow": {"u_mean": 1.0, "ramp_time": 0.1}, "time": {"dt": 0.01, "t_end": 0.2},
+                                "inflow": {"u_mean": 1.0, "ramp_time": 0.1},
+                                "time": {"scheme": "characteristics1", "dt": 0.01, "t_end": 0.2},
                                 "solver": {"reuse_factorization": reuse}})
         sim, results[reuse] = _run(scene)
         if reuse:
@@ -331,7 +327,7 @@ def test_mesh_motion_is_the_harmonic_extension_of_the_total_displacement():
 
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},
                             "fluid": {"rho": 1.0, "mu": 1.0}, "solid": {"rho": 1.0, "mu_s": 1.0},
-                            "inflow": {"u_mean": 1.0}, "time": {"dt": 0.1, "t_end": 1.0}})
+                            "inflow": {"u_mean": 1.0}, "time": {"scheme": "characteristics1", "dt": 0.1, "t_end": 1.0}})
 
     mesh, ct, _, _ = load_mesh(scene, MPI.COMM_WORLD)
     V = compat.function_space(mesh, "Lagrange", 2, shape=(2,))

@@ -23,7 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "campaigns"))
 import mesh_motion as campaign  # noqa: E402
 
 SCENE = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid": {"rho": 1.0, "mu": 1.0},
-         "solid": {"rho": 1.0, "mu_s": 1.0}, "inflow": {"u_mean": 1.0}, "time": {"dt": 0.1, "t_end": 1.0}}
+         "solid": {"rho": 1.0, "mu_s": 1.0}, "inflow": {"u_mean": 1.0},
+         "time": {"scheme": "characteristics1", "dt": 0.1, "t_end": 1.0}}
 
 
 def _min_quality(options: dict, delta: float) -> float:

@@ -26,11 +26,11 @@ ST = {"geometry": {"name": "schaefer_turek", "level": 0}, "fluid": {"rho": 1.0, 
       "output": {"every": 2, "checkpoint_every": 5, "progress": False}}
 FSI = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid": {"rho": 1000.0, "mu": 1.0},
        "solid": {"rho": 1000.0, "mu_s": 5.0e4}, "inflow": {"u_mean": 1.0, "ramp_time": 0.05},
-       "time": {"dt": 0.01, "t_end": 0.16}, "solver": {"reuse_factorization": False},
+       "time": {"scheme": "characteristics1", "dt": 0.01, "t_end": 0.16}, "solver": {"reuse_factorization": False},
        "output": {"every": 3, "checkpoint_every": 8, "progress": False}}
 FSI_BDF2 = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2"}}
-FSI_ALE = {**FSI, "time": {**FSI["time"], "scheme": "characteristics2", "convection": "ale"}}
-FSI_GA = {**FSI, "time": {**FSI["time"], "scheme": "generalized_alpha", "convection": "ale"}}
+FSI_ALE = {**FSI, "time": {**FSI["time"], "scheme": "ale_bdf2"}}
+FSI_GA = {**FSI, "time": {**FSI["time"], "scheme": "generalized_alpha"}}
 FSI_GA_CORRECTOR = {**FSI, "time": {**FSI_GA["time"], "corrector_passes": 1}}
 
 

@@ -93,7 +93,8 @@ def test_one_residual_for_the_linear_step_and_for_a_function():
     step (ufl.lhs/rhs with trial functions) and a Newton solve or the residual forces (with a Function)."""
     scene = validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "inflow": {"u_mean": 1.0},
-                            "micropolar": {"mu_r": 0.1, "lambda1": 0.01}, "time": {"dt": 0.1, "t_end": 0.2}})
+                            "micropolar": {"mu_r": 0.1, "lambda1": 0.01},
+                            "time": {"scheme": "characteristics1", "dt": 0.1, "t_end": 0.2}})
     comm = MPI.COMM_WORLD
     sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
     sim.run(2)

@@ -45,7 +45,9 @@ def test_study_runs_resumes_and_reports(run_cli, tmp_path, repo_root):
 
 
 @pytest.mark.parametrize("text, expected", [
-    ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{time.dt: [0.1, -1]}}\n", "time.dt: must be > 0"),
+    ("name: x\nconfig: {cfg}\nobservables: [c_D]\nbase: {{time.scheme: characteristics1, time.t_end: 1}}\n"
+     "ladder: {{time.dt: [0.1, -1]}}\n", "time.dt: must be > 0"),
+    ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{time.dt: [0.1]}}\n", "time.dt: not used by scheme steady"),
     ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{time.dtt: [0.1]}}\n", "time.dtt: unknown key"),
     ("name: x\nconfig: nope.yaml\nobservables: [c_D]\nladder: {{time.dt: [0.1]}}\n", "config: nope.yaml not found"),
     ("name: x\nconfig: {cfg}\nobservables: [c_D]\nladder: {{}}\n", "ladder: "),
@@ -79,11 +81,12 @@ def test_extra_runs_follow_the_ladder(tmp_path, repo_root):
     from cosserat_fsi.app.study import _combinations, load_study
 
     study = load_study(_study(tmp_path, f"name: v\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D]\n"
-                                        "base: {time.t_end: 0.3}\nladder: {time.dt: [0.1, 0.05]}\n"
+                                        "base: {time.t_end: 0.3, time.scheme: characteristics1}\n"
+                                        "ladder: {time.dt: [0.1, 0.05]}\n"
                                         "extra: {c2-fine: {time.dt: 0.01, time.scheme: characteristics2}}\n"))
     runs = _combinations(study)
     assert [run_id for _, run_id in runs] == ["dt0.1", "dt0.05", "c2-fine"]
-    assert runs[2][0] == {"time.t_end": 0.3, "time.dt": 0.01, "time.scheme": "characteristics2"}
+    assert runs[2][0] == {"time.t_end": 0.3, "time.scheme": "characteristics2", "time.dt": 0.01}
 
 
 def test_bad_variant_exits_2(run_cli, tmp_path, repo_root):

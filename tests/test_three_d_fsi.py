@@ -26,7 +26,7 @@ import dolfinx
 def _scene(**overrides):
     sections = {"geometry": {"name": "turek_hron_3d", "level": 0}, "fluid": {"rho": 1000.0, "mu": 1.0},
                 "solid": {"rho": 1000.0, "mu_s": 5e5}, "inflow": {"u_mean": 0.2, "ramp_time": 0.5},
-                "time": {"dt": 0.01, "t_end": 0.05}}
+                "time": {"scheme": "characteristics1", "dt": 0.01, "t_end": 0.05}}
     for key, value in overrides.items():
         sections[key] = {**sections.get(key, {}), **value} if isinstance(value, dict) else value
     return validate_scene({k: v for k, v in sections.items() if v is not None})

@@ -85,7 +85,8 @@ def test_relative_path_is_the_scene_folder(tmp_path, monkeypatch):
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "m.geo").write_text(BLOCK.read_text())
     (tmp_path / "sub" / "scene.yaml").write_text(
-        "geometry: {name: file, path: m.geo}\nfluid: {rho: 1.0, mu: 1.0}\ntime: {dt: 0.1, t_end: 0.1}\n")
+        "geometry: {name: file, path: m.geo}\nfluid: {rho: 1.0, mu: 1.0}\n"
+        "time: {scheme: characteristics1, dt: 0.1, t_end: 0.1}\n")
     monkeypatch.chdir(tmp_path)
     scene = load_scene(tmp_path / "sub" / "scene.yaml")
     assert Path(scene.geometry.path) == (tmp_path / "sub" / "m.geo").resolve()
@@ -191,7 +192,7 @@ def _scene_file(folder: Path) -> Path:
                     "boundaries: {inlet: {type: velocity, value: ['6*y*(1 - y)*min(t/0.05, 1)', 0]},\n"
                     "             outlet: {type: do_nothing}, walls: {type: no_slip}, clamp: {type: no_slip}}\n"
                     "observables: {wetted_solid: true, points: {B: [1.5, 0.5]}, solid_points: {top: [0.9, 0.4]}}\n"
-                    "time: {dt: 0.01, t_end: 0.05}\n"
+                    "time: {scheme: characteristics1, dt: 0.01, t_end: 0.05}\n"
                     "output: {progress: false, fields: false}\n")
     return path
 

@@ -12,12 +12,13 @@ levels × δt × scheme × solver options):
       time.dt: [0.002, 0.001]
     variants:                                                  # optional: named override sets, each
       c2: {time.scheme: characteristics2}                      # run at every point of the ladder (ids
-      c2-extrapolated: {time.scheme: characteristics2,         # end in -<variant>): for options that
-                        time.solve_configuration: extrapolated}  # only make sense together
+      c2-corrector1: {time.scheme: characteristics2,           # end in -<variant>): for options that
+                      time.corrector_passes: 1}                # only make sense together
     extra:                                                     # optional: single runs beside the ladder
-      ale-dt0.002-level1: {geometry.level: 1, time.dt: 0.002, time.convection: ale}   # (id: overrides)
+      ale-dt0.002-level1: {geometry.level: 1, time.dt: 0.002, time.scheme: ale_bdf2}   # (id: overrides)
     ranks: 1                                                   # optional: runs under mpirun -n ranks
 
+An override ``null`` removes the key (e.g. a ``time.corrector_passes`` the scheme of the run does not take).
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
 ``<out>/runs/study-<name>/<run id>/`` (``<out>``: ``--out``, default the current directory), through the
 campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume.

@@ -6,7 +6,7 @@
 DIR holds ``perpendicular_flap_openfoam-*.txt`` (the tip watchpoint logs of the OpenFOAM pairs, columns
 Time ... Displacement0 ...; see shared/reference/perpendicular_flap.md). The first peak is the first local
 maximum of the tip's x-displacement, refined by a parabola through it and its neighbours; the period is the
-mean distance between successive maxima. Bands (issue 17): first peak within 5 %, period within 3 % of the
+mean distance between successive maxima. Bands: first peak within 5 %, period within 3 % of the
 OpenFOAM pairs' consensus.
 """
 

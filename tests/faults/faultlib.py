@@ -20,7 +20,7 @@ TINY = """\
 geometry: {name: schaefer_turek, level: 0}
 fluid: {rho: 1.0, mu: 0.001}
 inflow: {u_mean: 1.0, ramp_time: 0.2}
-time: {dt: 0.05, t_end: 0.15}
+time: {scheme: characteristics1, dt: 0.05, t_end: 0.15}
 output: {every: 1, checkpoint_every: 2, progress: false}
 """
 """3 steps, a checkpoint at step 2, every step's fields: the run every folder/restart case starts from."""

@@ -224,7 +224,8 @@ def test_stale_mesh_temporaries_are_cleaned(repo_root, tmp_path):
     stale = cache / f".square-L0-0123456789.{dead.pid}.tmp.msh"
     stale.write_text("partial")
     config = tmp_path / "cavity.yaml"
-    config.write_text("geometry: {name: square, level: 0}\nfluid: {rho: 1, mu: 0.01}\ntime: {dt: 0.1, t_end: 1}\n")
+    config.write_text("geometry: {name: square, level: 0}\nfluid: {rho: 1, mu: 0.01}\n"
+                      "time: {scheme: characteristics1, dt: 0.1, t_end: 1}\n")
     result = cli("mesh", config, COSSERAT_FSI_MESH_CACHE=cache)
     assert result.returncode == 0, result
     assert not stale.exists() and len(list(cache.glob("*.msh"))) == 1
@@ -235,7 +236,8 @@ def test_stale_mesh_temporaries_are_cleaned(repo_root, tmp_path):
 def test_gmsh_that_fails_or_dies(tmp_path, kind, expected):
     cache = tmp_path / "cache"
     config = tmp_path / "cavity.yaml"
-    config.write_text("geometry: {name: square, level: 1}\nfluid: {rho: 1, mu: 0.01}\ntime: {dt: 0.1, t_end: 1}\n")
+    config.write_text("geometry: {name: square, level: 1}\nfluid: {rho: 1, mu: 0.01}\n"
+                      "time: {scheme: characteristics1, dt: 0.1, t_end: 1}\n")
     result = cli("mesh", config, COSSERAT_FSI_MESH_CACHE=cache, COSSERAT_FSI_FAILPOINT=f"gmsh@0:{kind}")
     check(result, 2, "error: geometry: gmsh could not mesh square level 1", expected)
     assert not cache.exists() or [p.name for p in cache.iterdir()] == []
@@ -254,7 +256,8 @@ def test_unwritable_cache_named_by_its_variable(tiny_config, tmp_path, variable)
 def test_unwritable_home_falls_back(tmp_path):
     """HOME and XDG_CACHE_HOME unusable: the mesh cache falls back to the temporary directory."""
     config = tmp_path / "cavity.yaml"
-    config.write_text("geometry: {name: square, level: 0}\nfluid: {rho: 1, mu: 0.01}\ntime: {dt: 0.1, t_end: 1}\n")
+    config.write_text("geometry: {name: square, level: 0}\nfluid: {rho: 1, mu: 0.01}\n"
+                      "time: {scheme: characteristics1, dt: 0.1, t_end: 1}\n")
     blocker = tmp_path / "file"
     blocker.write_text("")
     result = cli("mesh", config, HOME=blocker / "home", XDG_CACHE_HOME=blocker / "cache",

@@ -126,7 +126,7 @@ def test_yaml_merge_keys_are_accepted(tmp_path):
     path.write_text("x-water: &water {rho: 1.0, mu: 0.001}\n"
                     "geometry: {name: schaefer_turek, level: 0}\n"
                     "fluid: {<<: *water, mu: 0.002}\n"
-                    "inflow: {u_mean: 1.0}\ntime: {dt: 0.05, t_end: 0.1}\n")
+                    "inflow: {u_mean: 1.0}\ntime: {scheme: characteristics1, dt: 0.05, t_end: 0.1}\n")
     scene = load_scene(path)
     assert (scene.fluid.rho, scene.fluid.mu) == (1.0, 0.002)
 
@@ -186,7 +186,8 @@ _BLOCK_NAMED = 'Physical Surface("fluid") = {1}; Physical Surface("solid") = {2}
 _NAMED = 'Physical Surface("fluid") = {1}; Physical Curve("walls") = {1,2,3,4};\n'
 _BOX3D = "SetFactory(\"OpenCASCADE\"); Box(1) = {0,0,0,1,1,1};\nPhysical Volume(\"fluid\") = {1};\n" \
          "Physical Surface(\"walls\") = {1,2,3,4,5,6};\n"
-_SCENE = "fluid: {rho: 1.0, mu: 0.01}\ntime: {dt: 0.1, t_end: 0.1}\noutput: {progress: false}\n"
+_SCENE = ("fluid: {rho: 1.0, mu: 0.01}\ntime: {scheme: characteristics1, dt: 0.1, t_end: 0.1}\n"
+          "output: {progress: false}\n")
 FILE_SCENES = {  # (files {name: content}, geometry section, extra YAML, expected message)
     "missing_file": ({}, "{name: file, path: nowhere.geo}", "", "geometry.path: no such file: "),
     "not_gmsh_suffix": ({"m.txt": _SQUARE}, "{name: file, path: m.txt}", "",
