@@ -81,9 +81,9 @@ LADDERS = {
 
 
 def oscillator_errors(rho_infinity: float, omega_dt: float) -> tuple[float, float]:
-    """Generalised-α (first-order form, scheme/stepper.py) on ẏ = iωy: (relative frequency error, amplitude
+    """Generalised-α (first-order form, scheme/generalized_alpha.py) on ẏ = iωy: (relative frequency error, amplitude
     factor per period) at ω δt — the scheme's own phase error on an oscillation resolved by 2π/(ωδt) steps."""
-    from cosserat_fsi.scheme.stepper import generalized_alpha
+    from cosserat_fsi.scheme.generalized_alpha import generalized_alpha
 
     alpha_m, alpha_f, gamma = generalized_alpha(rho_infinity)
     lam = 1j * omega_dt  # unknowns (y^{n+1}, δt ẏ^{n+1}) from (y^n, δt ẏ^n)
@@ -239,7 +239,7 @@ def foot_map(run_dir: Path, dts: list[float]) -> str:
     over the mesh, where the maximum is, and the areas where the strain number exceeds ½ and 1."""
     _, sim, states = checkpointed(run_dir)
     sim.restore(states)
-    loc = sim.stepper.histories.chars.locator
+    loc = sim.locator
     u = sim.state.velocity
     dofs = loc.dofs(u.function_space)
     star = (2.0 * u.x.array - sim.state.velocity_prev.x.array).reshape(-1, 2)

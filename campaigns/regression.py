@@ -4,7 +4,8 @@
     python campaigns/regression.py check  [CASE ...]   # rerun and compare (exit 1 on a difference)
 
 Each case is a short `cosserat-fsi run` (level 0 or the seed mesh, a few tens of steps, fields off) of a
-shipped config; the set covers 2D-1, CFD3 with both schemes, FSI3 first order and BDF2, a Cosserat FSI3,
+shipped config; the set covers 2D-1, CFD3 with both characteristics schemes and with ale_bdf2 + a Picard pass, FSI3
+first order, BDF2, ale_bdf2 and generalised-α + 2 passes, a Cosserat FSI3 (first order and generalised-α),
 CSM1, micropolar Poiseuille, a restart and 2 MPI ranks (the steady shipped configs with their former time
 stepping pinned: 2D-1, CSM1 and Poiseuille are now solved by Newton when run as shipped). ``check`` compares
 every column of timeseries.csv with the recorded one: |a − b| <= RTOL · max|b| over the column (+ 1e-14), RTOL = 1e-10.
@@ -48,6 +49,14 @@ CASES = {
     "mp-poiseuille": ("configs/micropolar_poiseuille.yaml",
                       ["geometry.level=0", "time.scheme=characteristics2", "time.dt=10", "time.t_end=50",
                        "output.fields=false"]),
+    # the nodal schemes: the shipped FSI3 (ale_bdf2) and CFD3 (ale_bdf2 + a Picard pass), generalised-α + 2 passes
+    "fsi3-ale": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC),
+    "cfd3-ale-picard": ("configs/turek_hron_cfd3.yaml", _FAST_FLOW),
+    "fsi3-ga": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + ["time.scheme=generalized_alpha",
+                                                                         "time.corrector_passes=2"]),
+    "cosserat-fsi3-ga": ("configs/seed_cosserat_fsi3.yaml",
+                         [o for o in _FAST_FLOW if not o.startswith("geometry.")] + _HARMONIC
+                         + ["time.scheme=generalized_alpha"]),
     # fsi3-c2 in two legs: to t = 0.05 (checkpoint at step 5), then --restart from step 5 to t = 0.1
     "restart": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + _CHARS + ["time.scheme=characteristics2"]),
     "np2": ("configs/turek_hron_fsi3.yaml", _FAST_FLOW + _HARMONIC + _CHARS + ["time.scheme=characteristics2"]),

@@ -63,7 +63,7 @@ class GeneralizedAlpha(_Stepping):
     nodal values, convection relative to the mesh as ale_bdf2: second order, one linear solve a step.
 
     ``rho_infinity`` ρ∞: the damping of the unresolved modes (the resolved ones are barely damped, unlike
-    BDF2's 4.5 % per period at ωδt = 1/3); ρ∞ = 1 (no damping) is unstable for a solid (scheme/stepper.py).
+    BDF2's 4.5 % per period at ωδt = 1/3); ρ∞ = 1 (no damping) is unstable for a solid (scheme/generalized_alpha.py).
     ``corrector_passes``: re-place the mesh at the predicted t^{n+α_f}, linearise the solid stress and the
     convection around the predicted values there and solve again (without a solid: Picard). FSI3 diverges
     without passes at ρ∞ = 0.5; with 2 at δt = 0.01 it is within 2.7 % (docs/performance.md)."""

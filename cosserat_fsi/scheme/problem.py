@@ -2,7 +2,7 @@
 
 ``Problem`` knows *what* is solved (which fields and terms the scene needs, ρ/μ/f per cell, manufactured
 sources) but not *how* time is discretised: :meth:`Problem.residual` takes the material accelerations as UFL
-expressions. The characteristics scheme (``scheme/stepper.py``) passes (α u − α h)/δt with trial functions and
+expressions. A time scheme (scheme/schemes.py) passes (α u − α h)/δt with trial functions and
 splits the form; a steady solver passes grad(u) u with a Function and differentiates it.
 """
 
