@@ -544,7 +544,7 @@ def plot_expansion(cases, runs: Path, out: Path) -> str | None:
     return f"figures/{name}"
 
 
-EXAMPLES_TITLE = "## Examples: user scenes (issue 17), written by `make validate`"
+EXAMPLES_TITLE = "## Examples: user scenes, written by `make validate`"
 
 
 def handwritten_sections(report: Path) -> list[str]:

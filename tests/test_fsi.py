@@ -88,8 +88,8 @@ def test_generalized_alpha_on_a_moving_mesh_is_second_order():
     """Generalised-α (ρ∞ = 0.5) on the wobbling mesh of the test below, δt = 0.05, 0.025, 0.0125: second
     order with the continuity equation on u^{n+α_f} in Ω^{n+α_f}, where the step is solved (measured
     2.1162e-3, 5.2881e-4, 1.3393e-4; rates 2.00, 1.98). With div u^{n+1} = 0 imposed there instead (the
-    scheme of session 14) it was first order: 2.379e-2, 1.189e-2, 5.946e-3 (rates 1.00, 1.00), which
-    made FSI3 first order in δt (docs/performance.md, issue 12, session 15)."""
+    first form of the scheme) it was first order: 2.379e-2, 1.189e-2, 5.946e-3 (rates 1.00, 1.00), which
+    made FSI3 first order in δt (docs/performance.md)."""
     errors = np.array([_taylor_green_error("generalized_alpha", dt, _tg_wobble, after_move=True)
                        for dt in (0.05, 0.025, 0.0125)])
     rates = np.log2(errors[:-1] / errors[1:])
@@ -234,7 +234,7 @@ def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
 
 
 def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
-    """A disk sinking onto the box's floor (issue 13): within ``wall_gap`` of the wall the run stops with
+    """A disk sinking onto the box's floor: within ``wall_gap`` of the wall the run stops with
     exit 3 and a message naming the wall, the place and the time; the output so far is kept."""
     cfg = tmp_path / "box.yaml"
     cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"

@@ -1,7 +1,7 @@
 """Behaviour regression: short runs of the shipped scenes give the recorded time series to 1e-10.
 
 The records (tests/data/regression/dolfinx-<version>/) were made with campaigns/regression.py on the code
-before the redesign of issue 11; a refactoring must leave them unchanged. A deliberate change of the
+before a redesign; a refactoring must leave them unchanged. A deliberate change of the
 numbers re-records them (``python campaigns/regression.py record``) in the same commit, with the reason.
 """
 

@@ -1,4 +1,4 @@
-"""Automatic remeshing (issue 13, items 2–3): what must hold across a remesh.
+"""Automatic remeshing: what must hold across a remesh.
 
 The Turek–Hron flag (L0, BDF2) is bent in pure bending to a tip deflection of 12 cm (campaigns/mesh_motion.py;
 the biharmonic extension's minimum cell quality is then 0.28) and the mesh is remeshed:

@@ -1,4 +1,4 @@
-"""The Simulation and its parts (issue 11): one loop, a State that checkpoints and transfers, a solver that
+"""The Simulation and its parts: one loop, a State that checkpoints and transfers, a solver that
 re-solves with its factorisation, a residual that serves both the step and a Newton solve."""
 
 from __future__ import annotations

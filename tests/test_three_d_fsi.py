@@ -1,4 +1,4 @@
-"""Solid, mesh motion and fluid–structure interaction in 3D (issue 15): the Turek–Hron geometry extruded in z
+"""Solid, mesh motion and fluid–structure interaction in 3D: the Turek–Hron geometry extruded in z
 (geometry ``turek_hron_3d``: square duct 2.5 × 0.41 × 0.41, cylinder across it, a flag spanning 0.2 of the
 width clamped to the cylinder; level 0: 1,453 vertices, 6,506 tetrahedra, 31,883 dofs)."""
 

@@ -1,4 +1,4 @@
-"""State.transfer_to through compat.interpolate_nonmatching (issue 13, groundwork for remeshing).
+"""State.transfer_to through compat.interpolate_nonmatching (the groundwork of remeshing).
 
 A micropolar state on the square (level 0) is carried to the square of level 1, another mesh of the same
 domain. A resting state stays zero, and a translating free stream (u uniform, p linear, ω constant, the

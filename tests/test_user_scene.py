@@ -1,4 +1,4 @@
-"""A user's own scene (issue 17): ``geometry: {name: file, path: ...}`` with physical names.
+"""A user's own scene: ``geometry: {name: file, path: ...}`` with physical names.
 
 The .geo is meshed through gmsh with its names (areas, lengths, the interface found from the cells); the
 built-in Turek–Hron FSI3 mesh given back as a user file, and the same geometry written by hand as a .geo
@@ -157,7 +157,7 @@ def test_hand_written_turek_hron_geo_gives_the_preset_mesh(tmp_path):
 
 @pytest.mark.slow
 def test_turek_hron_fsi3_equals_its_user_file_twin_with_boundaries(repo_root, tmp_path):
-    """The same over 200 steps (issue 17, item 4), the twin written by hand: the .geo above (the geometry,
+    """The same over 200 steps, the twin written by hand: the .geo above (the geometry,
     not the preset's mesh file) and the conditions in a boundaries section (the inflow, profile and ramp, as an
     expression of y and t; no-slip walls and cylinder; a do-nothing outlet) and the observables named: the
     force on the cylinder and the wetted flag, the flag's tip A as a solid point (the preset's ux_A, uy_A).

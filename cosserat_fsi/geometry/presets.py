@@ -1,4 +1,4 @@
-"""The built-in geometries as presets of the user-file path (issue 17, item 4): their default ``boundaries``.
+"""The built-in geometries as presets of the user-file path: their default ``boundaries``.
 
 A built-in geometry is a generator of a mesh with physical names (its builder module) plus the conditions
 this module writes for it in the language of a ``boundaries:`` section, so that the boundary code has one

@@ -2,7 +2,7 @@
 a cylinder (axis (0.2, 0.2), radius 0.05) spanning the duct in z, and an elastic flag [~0.249, 0.6]×[0.19, 0.21]
 clamped to the cylinder and spanning ``flag_width`` of the duct's width in its middle (z ∈ [(W − b)/2, (W + b)/2]).
 
-This is the project's own 3D variant (issue 15): the 2D benchmark's cross-section (Turek & Hron 2006) and the
+This is the project's own 3D variant: the 2D benchmark's cross-section (Turek & Hron 2006) and the
 3D duct of Schäfer & Turek 1996 (width 0.41); no published reference values exist for it, so it is a
 scene for robustness, parallel consistency and cost, not a validation case.
 

@@ -1,4 +1,4 @@
-"""Automatic remeshing (issue 13): gmsh meshes the fluid anew around the current solid; the solid keeps its cells.
+"""Automatic remeshing: gmsh meshes the fluid anew around the current solid; the solid keeps its cells.
 
 Why the solid keeps its cells: in this Eulerian formulation the solid's vertices are material points that
 carry the displacement d (the solid never distorts its own cells beyond what the material does, and the

@@ -1,4 +1,4 @@
-"""The state of a run: every field the next steps depend on, its checkpoint and (issue 13) its transfer.
+"""The state of a run: every field the next steps depend on, its checkpoint and its transfer to another mesh.
 
 A checkpoint stores this rank's owned dofs keyed by their coordinates on the reference mesh, so a restart
 does not depend on the partition (dolfinx's is not deterministic). The keys are those of checkpoint
@@ -170,7 +170,7 @@ class State:
     def transfer_to(self, other: State,
                     interpolate: Callable[[dolfinx.fem.Function, dolfinx.fem.Function], None]) -> None:
         """Carry every field and history level to ``other``, a State of the same scene on another mesh
-        (remeshing, issue 13): ``interpolate(target, source)`` moves one Function between the meshes (e.g.
+        (remeshing): ``interpolate(target, source)`` moves one Function between the meshes (e.g.
         dolfinx's non-matching interpolation). The mesh displacement levels are relative to each mesh's
         reference, so a transfer that re-references the mesh must reset them; that policy, and the
         choice of interpolation, belong to the remeshing and are not implemented here."""
