@@ -32,7 +32,7 @@ PERIODIC = list(_periodic_strings(load_references()))
 
 
 def test_file_has_the_periodic_entries():
-    assert len(PERIODIC) == 10  # CFD3: 2, FSI3: 2 sources x 4
+    assert len(PERIODIC) == 12  # CFD3: 2, CSM3: 2, FSI3: 2 sources x 4
 
 
 @pytest.mark.parametrize("path, text", PERIODIC, ids=[p for p, _ in PERIODIC])
