@@ -2,7 +2,7 @@
 #
 #   make run      set up the Debian stack (.venv) and run one scene        (SCENE=, OUT=, NP=, STACK=)
 #   make test     set up both stacks, ruff check, then the test suite on each, serial and under 2 MPI ranks
-#   make test-fast  the fast tier (-m "not slow", < 2 min per stack; STACK=debian|latest), for everyday work
+#   make test-fast  the fast tier (-m "not slow" on 2 workers, < 2 min per stack; STACK=debian|latest), for everyday work
 #
 # Idempotent: each venv carries a stamp file named after a hash of its install recipe and of
 # pyproject.toml; pip runs only when that stamp is missing. The apt step checks with dpkg first and
@@ -33,12 +33,12 @@ VENV := .venv
 # pull a second numpy into the venv that shadows the one dolfinx 0.5.2 was built against (checked below).
 # Debian's python3-numba 0.56.4 works too, but drags in scipy and compiles differently from the latest stack.
 NUMBA_PIN := numba==0.68.1 llvmlite==0.50.0
-PIP_DEBIAN := pydantic>=2 tqdm pytest pyvista ruff $(NUMBA_PIN)
+PIP_DEBIAN := pydantic>=2 tqdm pytest pytest-xdist pyvista ruff $(NUMBA_PIN)
 MPIRUN_DEBIAN := mpirun --allow-run-as-root --oversubscribe
 
 # ------------------------------------------------------------------------------------ latest stack
 VENV_LATEST := .venv-latest
-PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest ruff $(NUMBA_PIN)
+PIP_LATEST := dolfinx-solver-real gmsh h5py pyyaml pydantic tqdm matplotlib pyvista pytest pytest-xdist ruff $(NUMBA_PIN)
 PYENV_ROOT ?= $(HOME)/.pyenv
 # A Python >= 3.12: pyenv's newest 3.12.x, else python3.12 on PATH. Override: make setup-latest PYTHON_LATEST=...
 PYTHON_LATEST ?= $(or $(shell ls -d $(PYENV_ROOT)/versions/3.12*/bin/python3 2>/dev/null | sort -V | tail -n 1),$(shell command -v python3.12 2>/dev/null))
@@ -78,7 +78,7 @@ PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
 	@echo "make test    both stacks: ruff, serial pytest, then -m mpi under 2 ranks"
-	@echo "make test-fast [STACK=debian|latest]   pytest -m 'not slow' (everyday work)"
+	@echo "make test-fast [STACK=debian|latest]   pytest -n 2 -m 'not slow' (everyday work, < 2 min)"
 	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | extremes | study | clean | distclean"
 
 # ------------------------------------------------------------------------------------ setup
@@ -151,8 +151,9 @@ lint: setup
 	@echo "=== ruff check ==="
 	$(VENV)/bin/ruff check .
 
+# the fast tier: the tests below a few seconds each, on two pytest-xdist workers (one per core)
 test-fast: $(RUN_SETUP)
-	$(PY) -m pytest $(PYTEST_FLAGS) -m "not slow"
+	$(PY) -m pytest $(PYTEST_FLAGS) -n 2 -m "not slow"
 
 test-debian: setup
 	@echo "=== pytest: Debian stack (dolfinx 0.5.2, serial) ==="

@@ -84,6 +84,7 @@ def _tg_wobble(X, t):
     return 0.25 * np.sin(2 * np.pi * t)[None] * np.column_stack([bump, -bump * X[:, 0] / np.pi])
 
 
+@pytest.mark.slow
 def test_generalized_alpha_on_a_moving_mesh_is_second_order():
     """Generalised-α (ρ∞ = 0.5) on the wobbling mesh of the test below, δt = 0.05, 0.025, 0.0125: second
     order with the continuity equation on u^{n+α_f} in Ω^{n+α_f}, where the step is solved (measured
@@ -216,6 +217,7 @@ def test_closed_box_energy_never_increases():
     assert np.all(np.diff(energy) <= 1e-12 * energy[0]), np.diff(energy).max()
 
 
+@pytest.mark.slow
 def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     """A disk thrown across the box in one step would invert cells: exit 3, the time and place named,
     and the output written so far kept."""
@@ -233,6 +235,7 @@ def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     assert len((out / "timeseries.csv").read_text().splitlines()) >= 2  # the steps before it are kept
 
 
+@pytest.mark.slow
 def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
     """A disk sinking onto the box's floor: within ``wall_gap`` of the wall the run stops with
     exit 3 and a message naming the wall, the place and the time; the output so far is kept."""
@@ -258,6 +261,7 @@ def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
 @pytest.mark.parametrize("scheme, passes", [("characteristics1", 0), ("characteristics2", 0), ("ale_bdf2", 0),
                                             ("generalized_alpha", 0), ("generalized_alpha", 1),
                                             ("generalized_alpha", 2)])
+@pytest.mark.slow
 def test_fsi_serial_equals_parallel(scheme, passes):
     """Tip displacement, forces and energies of a short FSI run: COMM_WORLD (1 or 2 ranks) = COMM_SELF."""
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},

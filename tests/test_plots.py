@@ -35,6 +35,7 @@ def test_moving_mesh_in_fields_follows_point_A(fsi_run):
     assert np.abs(ts["uy_A"]).max() > 1e-7  # it did move
 
 
+@pytest.mark.slow
 def test_plot_writes_time_series_and_snapshots(run_cli, fsi_run, tmp_path):
     import matplotlib.image as mpimg
 

@@ -292,6 +292,7 @@ print("JSON" + json.dumps(out))
 """
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(__import__("shutil").which("pvpython") is None, reason="pvpython (python3-paraview) missing")
 def test_pvpython_shows_the_run_across_remeshes(remeshed_runs, tmp_path):
     import json

@@ -23,6 +23,7 @@ def test_pareto_front():
     assert sorted(pareto(points)) == [0, 1, 4]
 
 
+@pytest.mark.slow
 def test_study_runs_resumes_and_reports(run_cli, tmp_path, repo_root):
     study = _study(tmp_path, f"name: tiny\nconfig: {repo_root / REPO_CONFIG}\nobservables: [c_D, dp]\n"
                              "base: {geometry.level: 0, time.t_end: 0.3, time.scheme: characteristics2}\n"

@@ -184,6 +184,7 @@ class Poiseuille3D:
         return ufl.as_vector((0, 0, w)) if lib is ufl else np.vstack([0 * w, 0 * w, w])
 
 
+@pytest.mark.slow
 def test_micropolar_poiseuille_in_a_3d_slab():
     """The 2D micropolar Poiseuille flow (G = h = μ = μ_r = λ₁ = 1, λ₂ = 0.5) in a duct 2 × 2 × 1 with the
     exact data on the inlet, the walls y = 0, 2 and the side faces z = 0, 1, do-nothing outlet, steady Newton,
@@ -218,6 +219,7 @@ def test_micropolar_poiseuille_in_a_3d_slab():
     assert abs(flow[-1] - 0.37072084) < 1e-5, flow
 
 
+@pytest.mark.slow
 def test_schaefer_turek_3d1z_coarse():
     """Schäfer–Turek 3D-1Z (cylinder in a square duct, Re 20), steady Newton + MUMPS on level 0 (1,838
     vertices, 38,873 dofs): c_D = 6.1041 (−1.31 %), c_L = 0.01091 (+16 %), Δp = 0.1673 (−2.1 %) against
@@ -304,6 +306,7 @@ def _unsteady(scheme, dt, t_end, comm=MPI.COMM_WORLD, level=1, mesh=None):
     return sim
 
 
+@pytest.mark.slow
 def test_time_order_3d_characteristics1():
     """Seed's first-order characteristics on tetrahedra (cube level 1, 384 cells, 4,499 dofs), T = 1,
     δt = 0.2, 0.1, 0.05. Measured (both stacks): ‖u − u_ex‖ 0.435, 0.229, 0.123 (rates 0.93, 0.90),
@@ -321,6 +324,7 @@ def test_time_order_3d_characteristics1():
     assert np.all(np.abs(rates - 1) < 0.25), (errors, rates)
 
 
+@pytest.mark.slow
 def test_time_order_3d_characteristics2():
     """BDF2 characteristics on tetrahedra (cube level 1), T = 1, δt = 0.2, 0.1, 0.05, 0.025. On this mesh
     the spatial error (‖u − u_ex‖ → 0.034) hides the time error from δt = 0.05 on, so the order is read

@@ -80,6 +80,7 @@ def test_mesh_motion_on_tetrahedra(method):
     assert len(outer) == 0 or np.abs(d10.reshape(-1, 3)[outer]).max() == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scheme", [pytest.param("characteristics1", marks=pytest.mark.slow), "characteristics2"])
 def test_thrown_flag_in_still_fluid_loses_energy(scheme):
     """No inflow (inlet velocity 0), the flag thrown in +y at 0.1 m/s: kinetic + elastic energy (the 3D
@@ -134,6 +135,7 @@ def _scene_run(run_cli, repo_root, out, config, launcher=()):
 
 @pytest.mark.parametrize("config", ["turek_hron_3d_fsi.yaml",
                                     pytest.param("turek_hron_3d_cosserat_fsi.yaml", marks=pytest.mark.slow)])
+@pytest.mark.slow
 def test_3d_fsi_scene_serial_equals_two_ranks_and_paraview_reads_it(run_cli, repo_root, tmp_path, mpirun, config):
     """The shipped 3D FSI scenes (level 0) for 3 BDF2 steps with the inflow ramped in over 0.05 s: every
     column of the time series (forces, tip displacement, energies, flow rate, ω_max) the same on 1 and 2

@@ -234,6 +234,7 @@ def test_perpendicular_flap_example_runs(repo_root):
     assert np.allclose(series["flow_rate"], 40.0, rtol=1e-4), series["flow_rate"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("walls", ["zero", "half_curl"])
 def test_sudden_expansion_example_develops_into_exact_poiseuille(repo_root, walls):
     """examples/sudden_expansion (a micropolar fluid through a backward-facing step, steady Newton on level 0):

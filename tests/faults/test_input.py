@@ -310,6 +310,7 @@ def test_file_scene_gmsh_failure(main, tmp_path, monkeypatch):
     _one_line(code, err, "geometry.path: gmsh could not mesh m.geo")
 
 
+@pytest.mark.slow
 def test_file_scene_gmsh_timeout(main, tmp_path, monkeypatch):
     """gmsh that never finishes a .geo (the failpoint sleeps in the gmsh child) is stopped after
     COSSERAT_FSI_GMSH_TIMEOUT seconds: exit 2, one line naming the file, nothing cached."""

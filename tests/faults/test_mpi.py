@@ -25,6 +25,7 @@ STEPS = {  # failpoint -> (kind, exit code, start of the message)
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rank", [0, 1])
 @pytest.mark.parametrize("step", STEPS)
 def test_fault_on_one_rank_ends_both(mpi_launcher, tiny_config, tmp_path, step, rank):
@@ -40,6 +41,7 @@ def test_fault_on_one_rank_ends_both(mpi_launcher, tiny_config, tmp_path, step, 
     assert not (out / ".lock").exists()
 
 
+@pytest.mark.slow
 def test_fault_inside_a_collective_step_aborts_every_rank(mpi_launcher, tiny_config, tmp_path):
     """Rank 1 fails between two collectives of a step (rank 0 waits in the next one): MPI_Abort ends both
     with the exit code; the message names the failure once."""
@@ -52,6 +54,7 @@ def test_fault_inside_a_collective_step_aborts_every_rank(mpi_launcher, tiny_con
     assert len(ours) == 1 and "injected fault at observe" in ours[0], result
 
 
+@pytest.mark.slow
 def test_damaged_checkpoint_under_two_ranks(mpi_launcher, tiny_config, run_copy):
     (run_copy / "checkpoint" / "rank0000.npz").write_bytes(b"PK\x03\x04 broken")
     before = snapshot(run_copy)
@@ -61,6 +64,7 @@ def test_damaged_checkpoint_under_two_ranks(mpi_launcher, tiny_config, run_copy)
     assert snapshot(run_copy) == before
 
 
+@pytest.mark.slow
 def test_restart_on_two_ranks_of_a_serial_run(mpi_launcher, tiny_config, run_copy):
     """Across rank counts restarts work (the checkpoint is keyed by coordinates)."""
     result = cli("run", tiny_config, "--restart", run_copy, "--no-progress", "--set", "time.t_end=0.25",

@@ -118,6 +118,7 @@ def test_restart_of_a_file(tiny_config, run_copy):
     check(cli("run", tiny_config, "--restart", run_copy / "timeseries.csv"), 2, "error: --restart:", "is not a folder")
 
 
+@pytest.mark.slow
 def test_field_steps_are_kept_across_restarts_with_fields_off(tiny_config, run_copy):
     """fields on (steps 0..3), restart to 0.25 with fields off, then to 0.35 with fields on: the steps
     written first are still there, byte for byte, and the new ones follow."""
