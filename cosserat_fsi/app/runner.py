@@ -33,7 +33,8 @@ from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
-from .stop_signals import StopSignals, signal_handlers
+from ..signals import signal_handlers
+from .stop_signals import StopSignals
 from .verdict import classify_signals
 
 log = logging.getLogger("cosserat_fsi")

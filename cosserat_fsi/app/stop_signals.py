@@ -1,25 +1,14 @@
 """SIGINT and SIGTERM during a run: a checkpoint, then a clean stop, instead of a killed process.
 
-``signal_handlers`` saves the Python handlers and puts them back after a library replaced them (gmsh and
-PETSc install their own, even at the C level); ``StopSignals`` makes the signals only record their number
-within the time loop, which then writes a checkpoint and stops (``Interrupted``).
+``signal_handlers`` (cosserat_fsi/signals.py) saves the Python handlers and puts them back after a library
+replaced them (gmsh and PETSc install their own, even at the C level); ``StopSignals`` makes the signals only
+record their number within the time loop, which then writes a checkpoint and stops (``Interrupted``).
 """
 
 from __future__ import annotations
 
 import signal
 import threading
-
-
-def signal_handlers(restore: dict | None = None) -> dict:
-    """The Python handlers of SIGINT and SIGTERM; with ``restore``, install those again (which also puts
-    Python's C-level handler back where a library replaced it). Main thread only."""
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    for sig, handler in (restore or {}).items():
-        if handler is not None:
-            signal.signal(sig, handler)
-    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 
 class StopSignals:

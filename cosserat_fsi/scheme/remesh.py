@@ -19,14 +19,13 @@ distributes like any scene mesh.
 
 from __future__ import annotations
 
-import signal
-import threading
 from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
 
 from .. import compat
+from ..signals import signal_handlers
 from ..tags import CELL_TAGS, FLUID, SOLID
 
 
@@ -105,7 +104,7 @@ def _mesh_on_root(ids, coords, sizes, cells, cell_tag, facets, facet_tag, facet_
     unique, counts = np.unique(edges, axis=0, return_counts=True)
     boundary = unique[counts == 1]
     loops = _boundary_loops(boundary)
-    handlers = _signal_handlers()
+    handlers = signal_handlers()
     gmsh.initialize(["-nopopup"])
     try:
         from ..geometry import _gmsh
@@ -157,7 +156,7 @@ def _mesh_on_root(ids, coords, sizes, cells, cell_tag, facets, facet_tag, facet_
                    renumber(facets), facet_tag, facet_ids, path)
     finally:
         gmsh.finalize()
-        _signal_handlers(handlers)
+        signal_handlers(handlers)
 
 
 def _write_msh(gmsh, coords, fluid, solid, facets, facet_tag, facet_ids, path: Path) -> None:
@@ -184,13 +183,3 @@ def _write_msh(gmsh, coords, fluid, solid, facets, facet_tag, facet_ids, path: P
         mesh.addElementsByType(tag, 1, [], (edges + 1).ravel().tolist())
         gmsh.model.setPhysicalName(1, gmsh.model.addPhysicalGroup(1, [tag], tag), facet_names.get(tag, f"f{tag}"))
     gmsh.write(str(path))
-
-
-def _signal_handlers(restore: dict | None = None) -> dict:
-    """gmsh installs its own SIGINT handler: keep Python's (the run's stop signals) around it."""
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    for sig, handler in (restore or {}).items():
-        if handler is not None:
-            signal.signal(sig, handler)
-    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}

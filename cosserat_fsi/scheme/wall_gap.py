@@ -7,22 +7,18 @@ so every rank keeps all of them. A solid vertex closer than the gap to a wall st
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from .. import compat
 from ..errors import DivergenceError
-
-if TYPE_CHECKING:
-    from .mesh_motion import MeshMotion
 
 
 class WallGap:
     """The solid must stay ``gap`` away from the channel's walls: closer, no fluid mesh between them can
     carry the flow (a contact problem this scheme does not model), so the run stops (exit 3) naming where."""
 
-    def __init__(self, motion: MeshMotion, facets: np.ndarray | None, gap: float | None):
+    def __init__(self, motion, facets: np.ndarray | None, gap: float | None):
+        """``motion``: the MeshMotion whose solid vertices are checked; ``facets``: the wall facets."""
         comm, mesh, d = motion.comm, motion.mesh, motion.dim
         local = _facet_segments(mesh, facets) if facets is not None else np.zeros((0, d, d))
         self.segments = np.concatenate(comm.allgather(local))  # the walls do not move: all ranks keep them
