@@ -1,0 +1,83 @@
+"""Compressible hyperelastic solids: Saint Venant–Kirchhoff and neo-Hookean, pure UFL.
+
+Two descriptions of the same law:
+
+- Eulerian (the monolithic step, seed §3): the displacement d is a field on the current configuration, the
+  reference position of the material at x is x − d(x), so F⁻¹ = I − ∇d, J = det F = 1/det(I − ∇d) and the
+  Cauchy stress σ(d) = J⁻¹ F S Fᵀ (S the second Piola–Kirchhoff stress);
+- Lagrangian (the steady solid, physics/lagrangian.py): F = I + ∇_X d on the reference configuration and the
+  first Piola–Kirchhoff stress P = F S.
+
+Laws (μ, λ the Lamé parameters; in 2D the tensors are 2 × 2 and the laws are exactly those of plane strain,
+F₃₃ = 1):
+
+- ``saint_venant_kirchhoff``: S = λ tr(E) I + 2μ E, E = ½(FᵀF − I) (the Turek–Hron benchmarks' law);
+- ``neo_hookean``: ψ = μ/2 (I₁ − d) − μ ln J + λ/2 (ln J)², S = μ (I − C⁻¹) + λ ln J C⁻¹, so
+  σ = J⁻¹ [μ (B − I) + λ ln J I].
+
+Both reduce to linear elasticity σ = λ tr(ε) I + 2μ ε at small strain. The stresses are rational (and
+logarithmic) in ∇d: UFL's degree estimate for them is far above what the P2 fields need (hundreds to
+thousands of points a cell), so give the solid measure a quadrature degree.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+LAWS = ("saint_venant_kirchhoff", "neo_hookean")
+
+
+def lame(E: float, nu: float) -> tuple[float, float]:
+    """(μ, λ) of Young's modulus E and Poisson's ratio ν (3D and plane strain)."""
+    return E / (2.0 * (1.0 + nu)), E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+
+
+def second_piola_kirchhoff(law: str, F, mu, lam):
+    """S(F) of ``law``."""
+    I = ufl.Identity(ufl.shape(F)[0])
+    C = F.T * F
+    if law == "saint_venant_kirchhoff":
+        E = 0.5 * (C - I)
+        return lam * ufl.tr(E) * I + 2.0 * mu * E
+    if law == "neo_hookean":
+        C_inv = ufl.inv(C)
+        return mu * (I - C_inv) + lam * ufl.ln(ufl.det(F)) * C_inv
+    raise ValueError(f"unknown solid law {law!r} (one of {', '.join(LAWS)})")
+
+
+def cauchy_stress(law: str, d, mu, lam):
+    """σ(d) = J⁻¹ F S Fᵀ of the Eulerian displacement d (F = (I − ∇d)⁻¹)."""
+    return cauchy_of_gradient(law, ufl.grad(d), mu, lam)
+
+
+def cauchy_of_gradient(law: str, G, mu, lam):
+    """σ as a function of the Eulerian displacement gradient G = ∇d: F = (I − G)⁻¹, J = det F."""
+    I = ufl.Identity(ufl.shape(G)[0])
+    F = ufl.inv(I - G)
+    J = ufl.det(F)
+    if law == "neo_hookean":  # J⁻¹ F S Fᵀ written without C⁻¹
+        return (mu * (F * F.T - I) + lam * ufl.ln(J) * I) / J
+    return F * second_piola_kirchhoff(law, F, mu, lam) * F.T / J
+
+
+def first_piola_kirchhoff(law: str, d, mu, lam):
+    """P = F S of the Lagrangian displacement d (F = I + ∇_X d)."""
+    F = ufl.Identity(len(d)) + ufl.grad(d)
+    return F * second_piola_kirchhoff(law, F, mu, lam)
+
+
+def stress_residual(law: str, d, v, *, mu, lam, dx_solid) -> ufl.Form:
+    """∫_s σ(d) : ∇v: the solid's stress term of the momentum equation on the current configuration."""
+    return ufl.inner(cauchy_stress(law, d, mu, lam), ufl.grad(v)) * dx_solid
+
+
+def linearised_stress_residual(law: str, u, v, d_star, *, mu, lam, dt, dx_solid) -> ufl.Form:
+    """The solid's stress term at d = d* + δt u, linearised around d* (the analogue of seed eq. 28 for a
+    compressible law): ∫_s [σ(d*) + δt Dσ(d*)[u]] : ∇v, with Dσ(d*)[u] the Gateaux derivative of σ at d*
+    in the direction u. Linear in u; its error against σ(d* + δt u) is O(δt²)."""
+    # σ depends on d only through G = ∇d: Dσ(d*)[u] = ∂σ/∂G (∇d*) : ∇u
+    G = ufl.variable(ufl.grad(d_star))
+    sigma = cauchy_of_gradient(law, G, mu, lam)
+    i, j, k, m = ufl.indices(4)
+    change = ufl.as_tensor(ufl.diff(sigma, G)[i, j, k, m] * ufl.grad(u)[k, m], (i, j))
+    return ufl.inner(sigma + dt * change, ufl.grad(v)) * dx_solid
