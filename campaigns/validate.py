@@ -90,6 +90,8 @@ CASES = [
 EQ = 5.0 / 6.0
 CSM = {"ux_A": 0.10, "uy_A": 0.05}
 FSI1 = {"uy_A": 0.05, "drag": 0.05}
+SVK_CSM = {"ux_A": 0.01, "uy_A": 0.01}  # the compressible law's targets
+SVK_FSI1 = {"ux_A": 0.02, "uy_A": 0.02, "drag": 0.02, "lift": 0.02}
 FSI3 = {"uy_A.amplitude": 0.10, "uy_A.frequency": 0.05}
 SEED = {"uy_A.amplitude": 0.25, "uy_A.frequency": 0.10}
 # the shipped CSM and FSI1 scenes are steady (Newton); these cases keep the seed's time stepping
@@ -148,6 +150,11 @@ STEADY_CASES = (
        Case("csm2-L1-steady", "configs/turek_hron_csm2.yaml", {**STEADY, "geometry.level": 1}, CSM)]
     + [Case(f"fsi1-L{level}-steady", "configs/turek_hron_fsi1.yaml", {**STEADY, "geometry.level": level},
             {**FSI1, "ux_A": 0.05, "lift": 0.05}) for level in range(4)]
+    # the benchmarks' own solid: St Venant–Kirchhoff, ν = 0.4 (λ_s = 4 μ_s)
+    + [Case(f"{name}-L{level}-svk-steady", f"configs/turek_hron_{name}.yaml",
+            {**STEADY, "geometry.level": level, "solid.law": "saint_venant_kirchhoff", "solid.lambda_s": lam},
+            tolerances) for name, lam, tolerances in (("csm1", 2.0e6, SVK_CSM), ("csm2", 8.0e6, SVK_CSM),
+                                                      ("fsi1", 2.0e6, SVK_FSI1)) for level in (1, 2, 3)]
 )
 LADDERS = {"st2d1": ("c_D", "c_L", "dp"), "fsi1": ("drag", "lift", "ux_A", "uy_A")}
 
@@ -256,7 +263,18 @@ reference mesh, the fluid in ALE form on the cells moved by d (4 s on L1 against
 solid's pressure to the fluid's on the interface, which softens the flag when it is a few cells thick;
 with a separate P0 solid pressure (an experiment, not shipped) uy(A) is −8.4/−10.1 % on L1/L2, on its way to
 the stiffer incompressible law's deflection: the +2.8 % of `fsi1-L1-dt0.01` and the +4.5 % here are partly
-a cancellation of that softening against the law's extra stiffness."""
+a cancellation of that softening against the law's extra stiffness.
+
+Compressible solids (`solid.law: saint_venant_kirchhoff`, the benchmarks' own law, ν = 0.4, λ_s = 4μ_s;
+steady scenes only so far, physics/materials.py): P = F S in the solid, the pressure in the fluid only (p = 0
+at the solid's own pressure dofs, the interface's kept by the fluid's continuity equation). CSM1 on L1/L2/L3:
+ux(A) −1.54/−1.45/−1.42 %, uy(A) −0.88/−0.84/−0.82 % (the incompressible law: +31.7 % / +17.2 %); CSM2: ux(A)
+−1.61/−1.52/−1.48 %, uy(A) −0.90/−0.85/−0.83 %. Converged in h; what is left is the `flag` geometry's straight
+clamp (the benchmark's flag is clamped on the cylinder's arc, up to 1 mm further back at its edges). FSI1 on
+L1/L2/L3 (geometry turek_hron, clamped on the arc): ux(A) −0.41/−0.21/−0.14 %, uy(A) −0.34/−1.03/−0.64 %, drag
++0.06/+0.09/+0.06 %, lift −0.64/+0.04/+0.05 % (the incompressible law: uy(A) +4.5/−3.6/−6.9 %, lift −2.9 % on
+L1). Cases `csm1-L*-svk-steady`, `csm2-L*-svk-steady`, `fsi1-L*-svk-steady`; level 0 is pinned in
+tests/test_steady.py. The shipped CSM and FSI1 scenes still carry the incompressible law."""
 
 
 def run_case(case: Case, runs: Path, python: str | None = None, fields: bool = False) -> Path:

@@ -14,6 +14,7 @@ from .physics import fluid
 from .physics.stress import body_traction, cauchy_stress
 from .exact import EXACT_BENCHMARKS
 from .scheme.point_location import probe
+from .physics import materials
 from .physics.solid import elastic_energy_density
 from .tags import FLUID, SOLID
 
@@ -75,7 +76,11 @@ class Observables:
         if sim.model.solid:
             dx = ufl.dx(domain=mesh, subdomain_data=sim.cell_tags)
             kinetic = 0.5 * problem.rho * ufl.inner(u, u) * dx
-            elastic = elastic_energy_density(sim.displacement, problem.mu_s) * dx(SOLID)
+            if scene.solid.compressible:  # the stored energy per current volume, ψ/J (rational: a fixed rule)
+                elastic = materials.energy_density(scene.solid.law, sim.displacement, problem.mu_s, problem.lambda_s) \
+                    * ufl.dx(domain=mesh, subdomain_data=sim.cell_tags, metadata={"quadrature_degree": 4})(SOLID)
+            else:
+                elastic = elastic_energy_density(sim.displacement, problem.mu_s) * dx(SOLID)
             self._energy_forms = [compat.form(kinetic), compat.form(elastic)]
             self.columns += ["energy_kinetic", "energy_elastic", "energy_total"]
         self._flow_rate = None

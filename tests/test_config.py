@@ -23,6 +23,13 @@ time: {scheme: characteristics1, dt: 0.01, t_end: 1.0}
 """
 
 
+CSM = """\
+geometry: {name: flag, level: 0}
+solid: {law: saint_venant_kirchhoff, rho: 1000.0, mu_s: 0.5e6, lambda_s: 2.0e6, gravity: 2.0}
+time: {scheme: steady}
+"""
+
+
 def write(tmp_path: Path, text: str, name: str = "config.yaml") -> Path:
     path = tmp_path / name
     path.write_text(text)
@@ -134,6 +141,27 @@ BAD = [
     ("every_zero", None, ["output.every=0"], "output.every: must be >= 1"),
     ("bad_name", None, ["name=../x"], "name: must use only letters"),
     ("two_errors", None, ["fluid.rho=-1", "time.dt=-1"], "fluid.rho: must be > 0 (got -1) (+1 more)"),
+    # the solid's law and its parameters
+    ("law_without_parameters", CSM, ["solid.mu_s=null", "solid.lambda_s=null"],
+     "solid.law: saint_venant_kirchhoff takes one pair of parameters, E and nu, or mu_s and lambda_s (got none)"),
+    ("law_with_mixed_pair", CSM, ["solid.lambda_s=null", "solid.nu=0.4"],
+     "solid.law: saint_venant_kirchhoff takes one pair of parameters, E and nu, or mu_s and lambda_s (got mu_s, nu)"),
+    ("law_with_three_parameters", CSM, ["solid.E=1.4e6"], "solid.law: saint_venant_kirchhoff takes one pair"),
+    ("nu_half", CSM, ["solid.mu_s=null", "solid.lambda_s=null", "solid.E=1.4e6", "solid.nu=0.5"],
+     "solid.nu: must be < 0.5 (got 0.5)"),
+    ("nu_zero", CSM, ["solid.mu_s=null", "solid.lambda_s=null", "solid.E=1.4e6", "solid.nu=0"],
+     "solid.nu: must be > 0 (got 0)"),
+    ("incompressible_with_lambda", CSM, ["solid.law=mooney_rivlin_incompressible"],
+     "solid.lambda_s: not used by solid.law mooney_rivlin_incompressible (it takes mu_s)"),
+    ("incompressible_without_mu", CSM, ["solid.law=mooney_rivlin_incompressible", "solid.lambda_s=null",
+                                        "solid.mu_s=null"], "solid.mu_s: missing key"),
+    ("compressible_c2", CSM, ["solid.c2=1.0"], "solid.c2: only for solid.law mooney_rivlin_incompressible"),
+    ("compressible_volume_correction", CSM, ["solid.volume_correction=true"],
+     "solid.volume_correction: only for solid.law mooney_rivlin_incompressible"),
+    ("compressible_time_stepping", CSM, ["time={scheme: characteristics1, dt: 0.01, t_end: 1.0}"],
+     "solid.law: saint_venant_kirchhoff is solved by time.scheme steady only so far (got scheme characteristics1)"),
+    ("unknown_law", CSM, ["solid.law=hooke"], "solid.law: must be one of mooney_rivlin_incompressible, "
+     "saint_venant_kirchhoff, neo_hookean"),
 ]
 
 
@@ -246,3 +274,17 @@ def test_set_reaches_into_named_boundaries(repo_root):
                          ("boundaries.inlet.value.x=1", "boundaries.inlet.value: is a value, not a section")):
         with pytest.raises(InputError, match=re.escape(message)):
             load_scene(flap, [bad])
+
+
+def test_solid_law_parameters(tmp_path):
+    """E, ν give the Lamé pair (plane strain and 3D); the incompressible law is the default and keeps its
+    volume correction unless switched off; a compressible law has none."""
+    scene = load_scene(write(tmp_path, CSM), ["solid.mu_s=null", "solid.lambda_s=null", "solid.E=1.4e6",
+                                             "solid.nu=0.4"])
+    mu, lam = scene.solid.lame()
+    assert abs(mu - 0.5e6) < 1e-6 and abs(lam - 2.0e6) < 1e-6
+    assert scene.solid.compressible and not scene.solid.corrects_volume
+    old = load_scene(write(tmp_path, CSM), ["solid.law=null", "solid.lambda_s=null"])
+    assert old.solid.law == "mooney_rivlin_incompressible" and old.solid.corrects_volume
+    assert not load_scene(write(tmp_path, CSM), ["solid.law=null", "solid.lambda_s=null",
+                                                  "solid.volume_correction=false"]).solid.corrects_volume

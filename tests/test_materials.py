@@ -146,3 +146,23 @@ def test_linearised_stress_is_second_order(law):
 def test_lame_parameters():
     mu, lam = materials.lame(1.4e6, 0.4)
     assert np.isclose(mu, 0.5e6) and np.isclose(lam, 2.0e6)
+
+
+@pytest.mark.parametrize("law", LAWS)
+def test_energy_density_of_homogeneous_deformations(law):
+    """ψ(F)/J, the stored energy per current volume: SVK λ/2 (tr E)² + μ tr(E²), neo-Hookean
+    μ/2 (I₁ − d) − μ ln J + λ/2 (ln J)² (2D: plane strain, d = 2)."""
+    mesh = _mesh(2)
+    dx = ufl.dx(domain=mesh, metadata={"quadrature_degree": 1})
+    area = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(compat.form(1.0 * dx)), op=MPI.SUM)
+    for name, F in _deformations(2).items():
+        d = _eulerian(mesh, F)
+        value = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(compat.form(
+            materials.energy_density(law, d, MU, LAM) * dx)), op=MPI.SUM) / area
+        J, C = np.linalg.det(F), F.T @ F
+        if law == "neo_hookean":
+            psi = MU / 2 * (np.trace(C) - 2) - MU * np.log(J) + LAM / 2 * np.log(J) ** 2
+        else:
+            E = 0.5 * (C - np.eye(2))
+            psi = LAM / 2 * np.trace(E) ** 2 + MU * np.sum(E * E)
+        assert abs(value - psi / J) <= 1e-9 * abs(psi / J), (name, value, psi / J)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from .base import NonNegFloat, PositiveFloat, _Section
 
@@ -73,33 +73,81 @@ class MeshMotionSettings(_Section):
                 "stiffness_exponent": exponent if self.stiffness_exponent is None else self.stiffness_exponent}
 
 
-class Solid(_Section):
-    """Incompressible Mooney–Rivlin body (seed eqs. 6–14).
+INCOMPRESSIBLE = "mooney_rivlin_incompressible"
 
-    ``mu_s``: shear modulus (Pa); Cauchy stress −pI + μ_s (Dd − ∇d∇dᵀ), i.e. the seed's 2c₁ = μ_s
-    (seed c₁ = 10⁶ ↔ mu_s = 2·10⁶, the Turek–Hron FSI3 value). ``c2``: the second Mooney–Rivlin constant;
-    in 2D with det F = 1 it only shifts the pressure (seed eq. 14), so it does not change the motion.
+
+class Solid(_Section):
+    """The elastic body: its law, density, load and initial velocity.
+
+    ``law``: ``mooney_rivlin_incompressible`` (default, the seed's eqs. 6–14: Cauchy stress
+    −pI + μ_s (Dd − ∇d∇dᵀ), the seed's 2c₁ = μ_s, div u = 0 in the solid; it takes ``mu_s`` and ``c2``),
+    or a compressible law (physics/materials.py), the Turek–Hron benchmarks' ``saint_venant_kirchhoff``
+    or ``neo_hookean`` (ψ = μ/2 (I₁ − d) − μ ln J + λ/2 (ln J)²), with one pair of parameters: ``E``
+    and ``nu`` (0 < ν < ½), or the Lamé pair ``mu_s`` and ``lambda_s``. In 2D the laws are those of plane
+    strain. A compressible solid is solved by ``time.scheme: steady`` so far; its pressure lives in the
+    fluid (p = 0 at the solid's own pressure nodes) and ``rho`` is the reference density.
+    ``c2``: the second Mooney–Rivlin constant; in 2D with det F = 1 it only shifts the pressure (seed
+    eq. 14), so it does not change the motion.
     ``gravity``: acceleration (m/s²) in −y on the solid, switched on with the cosine ramp over
     ``gravity_ramp_time`` (a slow ramp reaches a static deflection without exciting the free
-    oscillation). ``volume_correction``: make the next velocity undo the area drift J ≠ 1 that the
-    seed's explicit node update x += δt u accumulates (on by default; off is the seed's scheme).
-    ``volume_correction_time`` (s): undo it over max(δt/α, this) instead of in one step (0: one step);
-    at small δt the one-step correction feeds back on itself (docs/performance.md). The correction is
-    part of the discrete problem: for a δt study set this ≥ the largest δt/α, so that every run solves
+    oscillation). ``volume_correction`` (incompressible law; on unless false): make the next velocity undo
+    the area drift J ≠ 1 that the seed's explicit node update x += δt u accumulates (off is the seed's
+    scheme). ``volume_correction_time`` (s): undo it over max(δt/α, this) instead of in one step (0: one
+    step); at small δt the one-step correction feeds back on itself (docs/performance.md). The correction
+    is part of the discrete problem: for a δt study set this ≥ the largest δt/α, so that every run solves
     the same one (with the one-step correction FSI3's frequency drifts at first order in δt).
     ``initial_velocity``: uniform initial velocity of the solid (m/s), e.g. to start a free vibration.
     ``mesh_motion``: see :class:`MeshMotionSettings`.
     """
 
+    law: Literal["mooney_rivlin_incompressible", "saint_venant_kirchhoff", "neo_hookean"] = INCOMPRESSIBLE
     rho: PositiveFloat
-    mu_s: PositiveFloat
+    mu_s: PositiveFloat | None = None
+    lambda_s: PositiveFloat | None = None
+    E: PositiveFloat | None = None
+    nu: float | None = Field(default=None, gt=0, lt=0.5)
     c2: NonNegFloat = 0.0
     gravity: float = 0.0
     gravity_ramp_time: NonNegFloat = 0.0
-    volume_correction: bool = True
+    volume_correction: bool | None = None
     volume_correction_time: NonNegFloat = 0.0
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # 3 in 3D
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
+
+    @model_validator(mode="after")
+    def _parameters(self):
+        given = [k for k in ("mu_s", "lambda_s", "E", "nu") if getattr(self, k) is not None]
+        if self.law == INCOMPRESSIBLE:
+            for key in given:
+                if key != "mu_s":
+                    raise ValueError(f"solid.{key}: not used by solid.law {INCOMPRESSIBLE} (it takes mu_s)")
+            if self.mu_s is None:
+                raise ValueError(f"solid.mu_s: missing key (solid.law {INCOMPRESSIBLE})")
+            return self
+        if set(given) not in ({"E", "nu"}, {"mu_s", "lambda_s"}):
+            raise ValueError(f"solid.law: {self.law} takes one pair of parameters, E and nu, or mu_s and lambda_s "
+                             f"(got {', '.join(given) or 'none'})")
+        if self.c2:
+            raise ValueError(f"solid.c2: only for solid.law {INCOMPRESSIBLE}")
+        if self.volume_correction:
+            raise ValueError(f"solid.volume_correction: only for solid.law {INCOMPRESSIBLE} (a compressible "
+                             "solid's volume follows its law)")
+        return self
+
+    @property
+    def compressible(self) -> bool:
+        return self.law != INCOMPRESSIBLE
+
+    @property
+    def corrects_volume(self) -> bool:
+        """The volume correction is on: the incompressible law, unless ``volume_correction: false``."""
+        return not self.compressible and self.volume_correction is not False
+
+    def lame(self) -> tuple[float, float]:
+        """(μ, λ) of a compressible law (from E, ν when given)."""
+        if self.E is not None:
+            return self.E / (2.0 * (1.0 + self.nu)), self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+        return self.mu_s, self.lambda_s
 
 
 class Inflow(_Section):

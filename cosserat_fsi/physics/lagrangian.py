@@ -1,6 +1,7 @@
 """Steady residuals on the reference configuration (Lagrangian solid, ALE fluid), for scheme/steady_solid.py.
 
-The solid is the seed's incompressible law (eqs. 6–14) written as in physics/solid.py, σ = −pI + μ_s (I − B⁻¹)
+The solid is the seed's incompressible law (eqs. 6–14) written as in physics/solid.py (or a compressible law of
+physics/materials.py, P = F S, without the constraint), σ = −pI + μ_s (I − B⁻¹)
 (the neo-Hookean −pI + μ_s B up to a redefinition of p, see there), pulled back to the reference mesh with
 the deformation gradient F = I + ∇d (∇ with respect to the reference coordinates X):
 
@@ -16,6 +17,8 @@ All functions return UFL forms and create no dolfinx objects.
 
 import ufl
 
+from . import materials
+
 
 def deformation(d):
     """(F, J, F⁻¹) of the displacement d on the reference configuration."""
@@ -23,8 +26,13 @@ def deformation(d):
     return F, ufl.det(F), ufl.inv(F)
 
 
-def solid_statics(d, p, phi, q, *, mu_s, body_force, dx_solid):
-    """Static equilibrium and incompressibility of the solid: ∫ P:∇φ − J f·φ − q (J − 1) dX."""
+def solid_statics(d, p, phi, q, *, mu_s, body_force, dx_solid, law=None, lambda_s=None):
+    """Static equilibrium and incompressibility of the solid: ∫ P:∇φ − J f·φ − q (J − 1) dX; with a
+    compressible ``law`` (physics/materials.py) ∫ P(F):∇φ − f·φ dX, f the load per reference volume (ρ_s
+    is the reference density), and no pressure in the solid."""
+    if law is not None and law != "mooney_rivlin_incompressible":
+        P = materials.first_piola_kirchhoff(law, d, mu_s, lambda_s)
+        return (ufl.inner(P, ufl.grad(phi)) - ufl.inner(body_force, phi)) * dx_solid
     F, J, Finv = deformation(d)
     sigma = -p * ufl.Identity(len(d)) + mu_s * (ufl.Identity(len(d)) - Finv.T * Finv)
     P = J * sigma * Finv.T

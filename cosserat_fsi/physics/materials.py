@@ -66,6 +66,24 @@ def first_piola_kirchhoff(law: str, d, mu, lam):
     return F * second_piola_kirchhoff(law, F, mu, lam)
 
 
+def energy_density(law: str, d, mu, lam):
+    """The stored energy per unit current volume, ψ(F)/J, of the Eulerian displacement d: ψ = λ/2 (tr E)² +
+    μ tr(E²) (SVK), μ/2 (I₁ − d) − μ ln J + λ/2 (ln J)² (neo-Hookean)."""
+    dim = len(d)
+    I = ufl.Identity(dim)
+    F = ufl.inv(I - ufl.grad(d))
+    J = ufl.det(F)
+    C = F.T * F
+    if law == "neo_hookean":
+        psi = 0.5 * mu * (ufl.tr(C) - dim) - mu * ufl.ln(J) + 0.5 * lam * ufl.ln(J) ** 2
+    elif law == "saint_venant_kirchhoff":
+        E = 0.5 * (C - I)
+        psi = 0.5 * lam * ufl.tr(E) ** 2 + mu * ufl.inner(E, E)
+    else:
+        raise ValueError(f"unknown solid law {law!r} (one of {', '.join(LAWS)})")
+    return psi / J
+
+
 def stress_residual(law: str, d, v, *, mu, lam, dx_solid) -> ufl.Form:
     """∫_s σ(d) : ∇v: the solid's stress term of the momentum equation on the current configuration."""
     return ufl.inner(cauchy_stress(law, d, mu, lam), ufl.grad(v)) * dx_solid

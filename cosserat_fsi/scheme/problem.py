@@ -59,7 +59,8 @@ class Problem:
 
     Coefficients (UFL-ready, fixed for the run unless a source is time dependent): ``rho``, ``mu``,
     ``body_force`` (f), ``penalty`` (ζ), ``viscous_form``; with micro-rotation ``mu_r``, ``lambda1``,
-    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s``; the others are None. ρ and f
+    ``inertia`` (I), ``body_couple`` (g), in 3D ``lambda2`` (λ₂); with a solid ``mu_s`` (μ_s, the shear
+    modulus) and for a compressible law ``lambda_s`` (λ_s); the others are None. ρ and f
     are DG0 fields (fluid/solid values) when the scene has a solid. :meth:`update_sources` sets the time-dependent ones.
     """
 
@@ -113,7 +114,7 @@ class Problem:
         body = np.zeros(gdim, dtype=PETSc.ScalarType)  # config checks the length (3D: default [0, 0] → f = 0)
         if s.fluid is not None:
             body[:len(s.fluid.body_force)] = s.fluid.body_force
-        self.mu_s = None
+        self.mu_s = self.lambda_s = None
         if model.solid:
             self.rho = self.cellwise(rho_f, s.solid.rho)
             gravity = np.zeros(gdim)
@@ -128,7 +129,9 @@ class Problem:
                     values[:] = fluid_part + ramp(t, ramp_time) * (full - fluid_part)
 
                 self._source_updates.append(gravity)
-            self.mu_s = self.constant(s.solid.mu_s)
+            mu_s, lambda_s = s.solid.lame() if s.solid.compressible else (s.solid.mu_s, None)
+            self.mu_s = self.constant(mu_s)
+            self.lambda_s = self.constant(lambda_s) if lambda_s is not None else None
         else:
             self.rho = self.constant(rho_f)
             self.body_force = dolfinx.fem.Constant(self.mesh, body)
@@ -261,6 +264,19 @@ class Problem:
                                              ds=ds(tuple(self.facet_tag_values(*walls))), mesh=self.mesh)
         return F
 
+    def solid_pressure_condition(self, space: MixedSpace):
+        """A compressible solid: p = 0 at the pressure dofs of solid cells that no fluid cell shares (the
+        pressure lives in the fluid; the dofs on the interface keep the fluid's continuity equation), as a
+        Dirichlet condition on ``space``; None for the incompressible law."""
+        if not (self.model.solid and self.scene.solid.compressible):
+            return None
+        sub, Q = space.sub("pressure"), space.space("pressure")
+        ct, tdim = self.cell_tags, self.mesh.topology.dim
+        in_solid = dolfinx.fem.locate_dofs_topological((sub, Q), tdim, ct.indices[ct.values == SOLID])
+        in_fluid = dolfinx.fem.locate_dofs_topological((sub, Q), tdim, ct.indices[ct.values == FLUID])
+        own = ~np.isin(in_solid[0], in_fluid[0])
+        return dolfinx.fem.dirichletbc(dolfinx.fem.Function(Q), [in_solid[0][own], in_solid[1][own]], sub)
+
     def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None) -> ufl.Form:
         """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28), or
         around ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
@@ -272,7 +288,7 @@ class Problem:
                                                 dx_solid=self.dx_solid)
         else:
             F = solid.linearised_stress_residual(u, v, d_star, mu_s=self.mu_s, dt=dt, dx_solid=self.dx_solid)
-        if self.scene.solid.volume_correction:
+        if self.scene.solid.corrects_volume:
             tau = self.scene.solid.volume_correction_time
             step = dt if step is None else step
             rate_time = ufl.max_value(step, self.constant(tau)) if tau > 0 else step
