@@ -84,8 +84,9 @@ class Solid(_Section):
     or a compressible law (physics/materials.py), the Turek–Hron benchmarks' ``saint_venant_kirchhoff``
     or ``neo_hookean`` (ψ = μ/2 (I₁ − d) − μ ln J + λ/2 (ln J)²), with one pair of parameters: ``E``
     and ``nu`` (0 < ν < ½), or the Lamé pair ``mu_s`` and ``lambda_s``. In 2D the laws are those of plane
-    strain. A compressible solid is solved by ``time.scheme: steady`` so far; its pressure lives in the
-    fluid (p = 0 at the solid's own pressure nodes) and ``rho`` is the reference density.
+    strain. A compressible solid's pressure lives in the fluid (p = 0 at the solid's own pressure nodes);
+    ``rho`` is its reference density (the inertia and the weight are ρ_s per current volume: exact for the
+    incompressible law, O(J − 1) for a compressible one).
     ``c2``: the second Mooney–Rivlin constant; in 2D with det F = 1 it only shifts the pressure (seed
     eq. 14), so it does not change the motion.
     ``gravity``: acceleration (m/s²) in −y on the solid, switched on with the cosine ramp over

@@ -11,7 +11,7 @@ from pydantic import Field, field_validator, model_validator
 from cosserat_fsi.geometry import Geometry
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
-from .physics import INCOMPRESSIBLE, Fluid, Inflow, Micropolar, Solid
+from .physics import Fluid, Inflow, Micropolar, Solid
 from .sections import BoundaryCondition, ObservableSet, Output
 from .solver import Solver
 from .time import Time
@@ -100,10 +100,6 @@ class Scene(_Section):
                 dim == 2 or "initial_velocity" in self.solid.model_fields_set):
             raise ValueError(f"solid.initial_velocity: needs {dim} components for the {dim}D geometry {geo.name} "
                              f"(got {len(self.solid.initial_velocity)})")
-        if self.solid is not None and self.solid.compressible:
-            if time.scheme != "steady":
-                raise ValueError(f"solid.law: {self.solid.law} is solved by time.scheme steady only so far "
-                                 f"(got scheme {time.scheme}); time stepping takes {INCOMPRESSIBLE}")
         if dim == 3 and self.solid is not None and self.solid.mesh_motion.remesh is not None:
             raise ValueError("solid.mesh_motion.remesh: remeshing is 2D only (the 3D mesh motion runs without it)")
         if dim == 2 and isinstance(m.body_couple, list):

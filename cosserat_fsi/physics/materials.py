@@ -89,13 +89,16 @@ def stress_residual(law: str, d, v, *, mu, lam, dx_solid) -> ufl.Form:
     return ufl.inner(cauchy_stress(law, d, mu, lam), ufl.grad(v)) * dx_solid
 
 
-def linearised_stress_residual(law: str, u, v, d_star, *, mu, lam, dt, dx_solid) -> ufl.Form:
-    """The solid's stress term at d = d* + δt u, linearised around d* (the analogue of seed eq. 28 for a
-    compressible law): ∫_s [σ(d*) + δt Dσ(d*)[u]] : ∇v, with Dσ(d*)[u] the Gateaux derivative of σ at d*
-    in the direction u. Linear in u; its error against σ(d* + δt u) is O(δt²)."""
-    # σ depends on d only through G = ∇d: Dσ(d*)[u] = ∂σ/∂G (∇d*) : ∇u
-    G = ufl.variable(ufl.grad(d_star))
+def linearised_stress_residual(law: str, u, v, d_star, *, mu, lam, dt, dx_solid, around=None) -> ufl.Form:
+    """The solid's stress term at d = d* + δt u, linearised (the analogue of seed eq. 28 for a compressible
+    law) around a = ``around`` (default d*): ∫_s [σ(a) + Dσ(a)[d* + δt u − a]] : ∇v, with Dσ(a)[w] the
+    Gateaux derivative of σ at a in the direction w. Linear in u; its error against σ(d* + δt u) is
+    quadratic in d* + δt u − a (O(δt²) around d*)."""
+    base = d_star if around is None else around
+    # σ depends on d only through G = ∇d: Dσ(a)[w] = ∂σ/∂G (∇a) : ∇w
+    G = ufl.variable(ufl.grad(base))
     sigma = cauchy_of_gradient(law, G, mu, lam)
+    step = dt * ufl.grad(u) if around is None else ufl.grad(d_star + dt * u - around)
     i, j, k, m = ufl.indices(4)
-    change = ufl.as_tensor(ufl.diff(sigma, G)[i, j, k, m] * ufl.grad(u)[k, m], (i, j))
-    return ufl.inner(sigma + dt * change, ufl.grad(v)) * dx_solid
+    change = ufl.as_tensor(ufl.diff(sigma, G)[i, j, k, m] * step[k, m], (i, j))
+    return ufl.inner(sigma + change, ufl.grad(v)) * dx_solid

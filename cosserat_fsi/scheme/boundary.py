@@ -42,6 +42,9 @@ class BoundaryConditions:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)
             return
         self._named(problem.conditions(), micro)
+        solid_pressure = problem.solid_pressure_condition(self.space)  # a compressible solid: p = 0 inside
+        if solid_pressure is not None:
+            self.bcs.append(solid_pressure)
 
     def _named(self, boundaries, micro: bool) -> None:
         """The conditions of a ``boundaries`` section: no-slip first, then the velocities (they win at shared

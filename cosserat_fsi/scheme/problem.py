@@ -15,7 +15,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
-from ..physics import fluid, solid
+from ..physics import fluid, materials, solid
 from ..tags import FACET_TAGS, FLUID, SOLID
 from .spaces import MixedSpace, mixed_space
 
@@ -83,9 +83,19 @@ class Problem:
             solid_cells = cell_tags.indices[cell_tags.values == SOLID]
             self.solid_velocity_dofs = dolfinx.fem.locate_dofs_topological(
                 self.space.space("velocity"), mesh.topology.dim, solid_cells)
+        # a compressible solid (solid.law): the pressure and the continuity equation live in the fluid cells
+        compressible = self.model.solid and scene.solid.compressible
+        self.fluid_cells = None
+        self.dx_continuity = self.dx
+        if compressible:
+            self.dx_continuity = ufl.dx(domain=mesh, subdomain_data=cell_tags)(FLUID)
+            self.dx_solid_law = ufl.dx(domain=mesh, subdomain_data=cell_tags,
+                                       metadata={"quadrature_degree": 4})(SOLID)  # rational in ∇d: a fixed rule
         self._source_updates: list[Callable[[float], None]] = []
         self.time = self.constant(0.0)  # t in the expressions of a boundaries section (update_sources)
         self._coefficients(exact)
+        if compressible:
+            self.fluid_cells = self.cellwise(1.0, 0.0)
 
     # ------------------------------------------------------------------------------ coefficients
     def constant(self, value) -> dolfinx.fem.Constant:
@@ -243,7 +253,10 @@ class Problem:
         """
         (u, p, omega), (v, q, tau) = self.split(trial), self.split(test)
         dx = self.dx
-        continuity = fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=dx, divergence=divergence)
+        continuity = fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=self.dx_continuity,
+                                               divergence=divergence)
+        if self.fluid_cells is not None:  # a compressible solid: the pressure acts in the fluid only
+            p = self.fluid_cells * p
         if at is not None:
             u, omega = at
         F = fluid.momentum_residual(u, p, v, rho=self.rho, acceleration=acceleration, mu=self.mu,
@@ -278,11 +291,16 @@ class Problem:
         return dolfinx.fem.dirichletbc(dolfinx.fem.Function(Q), [in_solid[0][own], in_solid[1][own]], sub)
 
     def solid_residual(self, trial, test, d_star, dt, d_predicted=None, step=None) -> ufl.Form:
-        """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28), or
-        around ``d_predicted`` when given (a corrector pass, ``time.corrector_passes``), plus the volume
+        """The solid terms of seed eq. (31), linearised around ``d_star`` with d = d* + ``dt`` u (eq. 28; a
+        compressible law: physics/materials.py), or around ``d_predicted`` when given (a corrector pass,
+        ``time.corrector_passes``), plus (the incompressible law) the volume
         correction when ``solid.volume_correction``, undone over max(``step``, τ) (``step`` default ``dt``;
         generalised-α passes δt: its ``dt`` is not the step's)."""
         (u, _, _), (v, q, _) = self.split(trial), self.split(test)
+        law = self.scene.solid.law
+        if self.scene.solid.compressible:  # σ(d) = J⁻¹FSFᵀ linearised around d* (or the prediction)
+            return materials.linearised_stress_residual(law, u, v, d_star, mu=self.mu_s, lam=self.lambda_s, dt=dt,
+                                                        dx_solid=self.dx_solid_law, around=d_predicted)
         if d_predicted is not None:
             F = solid.corrector_stress_residual(u, v, d_star, d_predicted, mu_s=self.mu_s, dt=dt,
                                                 dx_solid=self.dx_solid)

@@ -81,7 +81,6 @@ class SteadySolid(SteadyStepper):
         dx_solid = dx(SOLID)
         if pr.scene.solid.compressible:  # rational in ∇d: UFL's degree estimate would be in the hundreds
             dx_solid = ufl.dx(domain=mesh, subdomain_data=pr.cell_tags, metadata={"quadrature_degree": 4})(SOLID)
-            self.boundary.bcs.append(pr.solid_pressure_condition(sp))
         F = lagrangian.solid_statics(d, p, phi, q, mu_s=pr.mu_s, body_force=self.load * pr.body_force,
                                      dx_solid=dx_solid, law=law, lambda_s=pr.lambda_s)
         F = F + lagrangian.rest_and_extension(u, d, psi, dx_solid=dx(SOLID), dx_fluid=dx(FLUID))
