@@ -103,6 +103,22 @@ def test_flag_measures(tmp_path, level, params):
     assert _geo("flag", level, params).describe()["points"]["A"] == (length, thickness / 2)
 
 
+@pytest.mark.parametrize("level", [0, 2])
+def test_flag_clamped_on_the_arc(tmp_path, level):
+    """``clamp: arc``: the benchmark's flag, clamped on the cylinder (radius 0.05, centre (−0.05, 0.01) in the
+    flag's frame): the area and the clamp's arc as in the Turek–Hron geometry (to the chord's polygon error,
+    O(h²)), every clamp vertex on the circle, A a vertex, the cell count of the straight flag."""
+    m = _measures(geometry.build_msh(_geo("flag", level, {"clamp": "arc"}), tmp_path))
+    assert m["solid"] == pytest.approx(FLAG_AREA, rel=2e-4 / 4**level)
+    assert m["clamp"] == pytest.approx(ARC, rel=1e-3 / 4**level)
+    x = m["x"]
+    on_clamp = x[:, 0] < 1e-9
+    assert np.abs(np.hypot(x[on_clamp, 0] + R, x[on_clamp, 1] - A_HALF) - R).max() < 1e-9  # gmsh's arc: 1e-11
+    assert _is_vertex(x, (0.35, A_HALF)) and np.min(np.linalg.norm(x - [0.0, A_HALF], axis=1)) < 1e-9
+    ny = 4 * 2**level
+    assert m["vertices"] == (70 * ny // 4 + 1) * (ny + 1)
+
+
 def test_box_measures(tmp_path):
     r = 0.2
     errors_ = []

@@ -87,13 +87,16 @@ def add_physical(gmsh, dim, tags, name, tdim=2):
     gmsh.model.setPhysicalName(dim, value, name)
 
 
-def transfinite_rectangle(gmsh, length, height, nx, ny, facets, cells="fluid", split_right=False):
+def transfinite_rectangle(gmsh, length, height, nx, ny, facets, cells="fluid", split_right=False, left_radius=None):
     """Structured triangle mesh of [0,length]x[0,height] with nx x ny divisions ("Left" diagonals).
 
     ``facets`` names the bottom, right, top and left sides (equal names are merged into one group);
-    ``cells`` names the cells. ``split_right``: (length, height/2) is a vertex too (``ny`` must be even)."""
+    ``cells`` names the cells. ``split_right``: (length, height/2) is a vertex too (``ny`` must be even).
+    ``left_radius`` r: the left side is the arc of the circle of radius r centred at (−r, height/2) (a flag
+    clamped on a cylinder): it passes through (0, height/2), its corners at x = √(r² − height²/4) − r."""
     geo = gmsh.model.geo
-    pts = [geo.addPoint(x, y, 0) for x, y in ((0, 0), (length, 0), (length, height), (0, height))]
+    x0 = 0.0 if left_radius is None else math.sqrt(left_radius ** 2 - height ** 2 / 4) - left_radius
+    pts = [geo.addPoint(x, y, 0) for x, y in ((x0, 0), (length, 0), (length, height), (x0, height))]
     if split_right:
         mid = geo.addPoint(length, height / 2, 0)
         ends = [(pts[0], pts[1]), (pts[1], mid), (mid, pts[2]), (pts[2], pts[3]), (pts[3], pts[0])]
@@ -102,6 +105,10 @@ def transfinite_rectangle(gmsh, length, height, nx, ny, facets, cells="fluid", s
         ends = [(pts[i], pts[(i + 1) % 4]) for i in range(4)]
         sides, counts = (0, 1, 2, 3), (nx, ny, nx, ny)
     lines = [geo.addLine(a, b) for a, b in ends]
+    if left_radius is not None:  # the last side, top-left → bottom-left, on the circle
+        geo.remove([(1, lines[-1])])
+        centre = geo.addPoint(-left_radius, height / 2, 0)
+        lines[-1] = geo.addCircleArc(ends[-1][0], centre, ends[-1][1])
     surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
     for line, n in zip(lines, counts):
         geo.mesh.setTransfiniteCurve(line, n + 1)

@@ -2,7 +2,9 @@
 
 Tags: cells ``solid`` (2) everywhere; left edge x = 0 ``clamp`` (7); bottom, right and top edges
 ``interface`` (5, the free surface). The right edge is split at A = (length, thickness/2), a mesh vertex.
-Defaults ``length`` 0.35, ``thickness`` 0.02 (the Turek-Hron flag, 0.6 - 0.25 by 0.02).
+Defaults ``length`` 0.35, ``thickness`` 0.02 (the Turek-Hron flag, 0.6 - 0.25 by 0.02). ``clamp: arc``: the
+left edge is the arc of the Turek–Hron cylinder (radius 0.05) the flag is clamped on, as in the benchmark
+(it passes through (0, thickness/2); its corners are 1.0 mm further left); default ``straight``.
 
 Structured (transfinite) triangles, "Left" diagonals: 4 divisions across the thickness at level 0, doubled
 per level; along the flag max(1, round(4 * length / thickness)) times the same factor (70 for the defaults,
@@ -16,6 +18,8 @@ from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
 from ._model import GeometryBase, PositiveFloat
 
+CYLINDER_RADIUS = 0.05  # the Turek–Hron cylinder the flag is clamped on (``clamp: arc``)
+
 
 class Flag(GeometryBase):
     """The Turek–Hron flag alone, ``length`` x ``height`` (defaults 0.35 x 0.02): a solid-only scene."""
@@ -24,13 +28,17 @@ class Flag(GeometryBase):
     name: Literal["flag"] = "flag"
     length: PositiveFloat = 0.35
     height: PositiveFloat = 0.02
+    clamp: Literal["straight", "arc"] = "straight"
 
     @property
     def solid_cells(self) -> bool:
         return True
 
     def msh_params(self) -> dict[str, Any]:
-        return {"length": float(self.length), "thickness": float(self.height)}
+        params = {"length": float(self.length), "thickness": float(self.height)}
+        if self.clamp == "arc":  # (straight meshes keep their cache key)
+            params["clamp_radius"] = CYLINDER_RADIUS
+        return params
 
 
 def describe(params: dict[str, Any]) -> dict[str, Any]:
@@ -58,5 +66,6 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     ny = round(4 / scale)
     nx = max(1, round(4 * length / thickness)) * ny // 4
     facets = ("interface", "interface", "interface", "clamp")
-    _gmsh.transfinite_rectangle(gmsh, length, thickness, nx, ny, facets, cells="solid", split_right=True)
+    _gmsh.transfinite_rectangle(gmsh, length, thickness, nx, ny, facets, cells="solid", split_right=True,
+                                left_radius=params.get("clamp_radius"))
     gmsh.model.mesh.generate(2)
