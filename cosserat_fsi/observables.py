@@ -76,9 +76,9 @@ class Observables:
         if sim.model.solid:
             dx = ufl.dx(domain=mesh, subdomain_data=sim.cell_tags)
             kinetic = 0.5 * problem.rho * ufl.inner(u, u) * dx
-            if scene.solid.compressible:  # the stored energy per current volume, ψ/J (rational: a fixed rule)
-                elastic = materials.energy_density(scene.solid.law, sim.displacement, problem.mu_s, problem.lambda_s) \
-                    * ufl.dx(domain=mesh, subdomain_data=sim.cell_tags, metadata={"quadrature_degree": 4})(SOLID)
+            if scene.solid.compressible:  # the stored energy per current volume, ψ/J
+                elastic = (materials.energy_density(scene.solid.law, sim.displacement, problem.mu_s,
+                                                    problem.lambda_s) * problem.dx_solid_law)
             else:
                 elastic = elastic_energy_density(sim.displacement, problem.mu_s) * dx(SOLID)
             self._energy_forms = [compat.form(kinetic), compat.form(elastic)]

@@ -54,7 +54,7 @@ class MeshConvection:
         V = problem.space.space("velocity")
         self.motion = motion
         self.velocity = dolfinx.fem.Function(V, name="convecting_velocity")
-        self.fluid_cells = problem.cellwise(1.0, 0.0) if problem.model.solid else None
+        self.fluid_cells = problem.fluid_cells
         if motion is not None:
             self._w_P1, self._w = dolfinx.fem.Function(motion.M), dolfinx.fem.Function(V)
         self._u_star = None

@@ -84,18 +84,19 @@ class Problem:
             self.solid_velocity_dofs = dolfinx.fem.locate_dofs_topological(
                 self.space.space("velocity"), mesh.topology.dim, solid_cells)
         # a compressible solid (solid.law): the pressure and the continuity equation live in the fluid cells
-        compressible = self.model.solid and scene.solid.compressible
-        self.fluid_cells = None
+        # (``pressure_in_fluid``); its stress is rational in ∇d, integrated by a fixed rule (``dx_solid_law``)
+        self.pressure_in_fluid = self.model.solid and scene.solid.compressible
         self.dx_continuity = self.dx
-        if compressible:
+        self.dx_solid_law = None
+        if self.pressure_in_fluid:
             self.dx_continuity = ufl.dx(domain=mesh, subdomain_data=cell_tags)(FLUID)
             self.dx_solid_law = ufl.dx(domain=mesh, subdomain_data=cell_tags,
-                                       metadata={"quadrature_degree": 4})(SOLID)  # rational in ∇d: a fixed rule
+                                       metadata={"quadrature_degree": 4})(SOLID)
         self._source_updates: list[Callable[[float], None]] = []
         self.time = self.constant(0.0)  # t in the expressions of a boundaries section (update_sources)
         self._coefficients(exact)
-        if compressible:
-            self.fluid_cells = self.cellwise(1.0, 0.0)
+        # DG0: 1 in the fluid cells, 0 in the solid ones (a scene with a solid), else None
+        self.fluid_cells = self.cellwise(1.0, 0.0) if self.model.solid else None
 
     # ------------------------------------------------------------------------------ coefficients
     def constant(self, value) -> dolfinx.fem.Constant:
@@ -255,7 +256,7 @@ class Problem:
         dx = self.dx
         continuity = fluid.continuity_residual(u, p, q, penalty=self.penalty, dx=self.dx_continuity,
                                                divergence=divergence)
-        if self.fluid_cells is not None:  # a compressible solid: the pressure acts in the fluid only
+        if self.pressure_in_fluid:  # a compressible solid: the pressure acts in the fluid only
             p = self.fluid_cells * p
         if at is not None:
             u, omega = at

@@ -78,9 +78,7 @@ class SteadySolid(SteadyStepper):
         dx = ufl.dx(domain=mesh, subdomain_data=pr.cell_tags)
         self.load = self.constant(1.0)  # continuation parameter: fraction of the body force and convection
         law = pr.scene.solid.law
-        dx_solid = dx(SOLID)
-        if pr.scene.solid.compressible:  # rational in ∇d: UFL's degree estimate would be in the hundreds
-            dx_solid = ufl.dx(domain=mesh, subdomain_data=pr.cell_tags, metadata={"quadrature_degree": 4})(SOLID)
+        dx_solid = pr.dx_solid_law if pr.pressure_in_fluid else dx(SOLID)
         F = lagrangian.solid_statics(d, p, phi, q, mu_s=pr.mu_s, body_force=self.load * pr.body_force,
                                      dx_solid=dx_solid, law=law, lambda_s=pr.lambda_s)
         F = F + lagrangian.rest_and_extension(u, d, psi, dx_solid=dx(SOLID), dx_fluid=dx(FLUID))

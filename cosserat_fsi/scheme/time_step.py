@@ -78,6 +78,7 @@ class TimeStep:
         self.d_star = dolfinx.fem.Function(state.displacement.function_space) if problem.model.solid else None
         self.solution = dolfinx.fem.Function(problem.space.W, name="state")
         self.A = None
+        self.u_old = self.omega_old = None  # u^n, ω^n of the step where the stresses are evaluated between levels
 
     # ------------------------------------------------------------------------ the interface
     @property
@@ -102,7 +103,7 @@ class TimeStep:
 
     def acceleration(self, u):
         """The material acceleration of u (the step's, with u the solution: residual forces)."""
-        return self._convected(self._at(u, getattr(self, "u_old", None)),
+        return self._convected(self._at(u, self.u_old),
                                bdf_rate(u, self.histories.velocity, self.alpha, self.inv_dt))
 
     def restored(self) -> None:
@@ -141,7 +142,7 @@ class TimeStep:
         u, _, omega = pr.split(trial)
         micro = omega_at = None
         if omega is not None:
-            omega_at = self._at(omega, getattr(self, "omega_old", None))
+            omega_at = self._at(omega, self.omega_old)
             micro = self._convected(omega_at, bdf_rate(omega, h.micro_rotation, self.alpha, self.inv_dt))
         at, divergence = self._evaluation(u, omega_at, d_predicted)
         F = pr.residual(trial, test, acceleration=self.acceleration(u), micro_acceleration=micro,
