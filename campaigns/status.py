@@ -27,7 +27,7 @@ from cosserat_fsi.app.cases import Case, run_cases  # noqa: E402
 from cosserat_fsi.app.verdict import benchmark_rows  # noqa: E402
 
 QUICK = ["schaefer_turek_2d1", "turek_hron_cfd1", "turek_hron_cfd2", "turek_hron_csm1", "turek_hron_csm2",
-         "turek_hron_fsi1", "micropolar_poiseuille", "micropolar_taylor_green"]
+         "turek_hron_csm3", "turek_hron_fsi1", "micropolar_poiseuille", "micropolar_taylor_green"]
 LONG = ["schaefer_turek_2d2", "turek_hron_cfd3", "turek_hron_fsi3", "seed_fsi3", "seed_cosserat_fsi3"]
 BEGIN, END = "<!-- status:begin -->", "<!-- status:end -->"
 

@@ -82,7 +82,11 @@ class Observables:
             else:
                 elastic = elastic_energy_density(sim.displacement, problem.mu_s) * dx(SOLID)
             self._energy_forms = [compat.form(kinetic), compat.form(elastic)]
-            self.columns += ["energy_kinetic", "energy_elastic", "energy_total"]
+            self.columns += ["energy_kinetic", "energy_elastic"]
+            if scene.solid.gravity:  # the weight's potential −∫_s f·d (f the body force, ramp included)
+                self._energy_forms.append(compat.form(-ufl.inner(problem.body_force, sim.displacement) * dx(SOLID)))
+                self.columns.append("energy_potential")
+            self.columns.append("energy_total")
         self._flow_rate = None
         outlet = ids.get("outlet")
         if (scene.has_fluid and outlet is not None
@@ -143,9 +147,9 @@ class Observables:
                 local = d[node] if node >= 0 else np.zeros(2)
                 out[f"ux_{name}"], out[f"uy_{name}"] = self.comm.allreduce(local, op=MPI.SUM)
         if self._energy_forms is not None:
-            kinetic, elastic = (self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM)
-                                for f in self._energy_forms)
-            out.update(energy_kinetic=kinetic, energy_elastic=elastic, energy_total=kinetic + elastic)
+            energies = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._energy_forms]
+            out.update(zip(("energy_kinetic", "energy_elastic", "energy_potential"), energies),
+                       energy_total=sum(energies))
         if self._flow_rate is not None:
             out["flow_rate"] = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._flow_rate), op=MPI.SUM)
         if self._dp:

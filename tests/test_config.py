@@ -158,6 +158,8 @@ BAD = [
     ("compressible_c2", CSM, ["solid.c2=1.0"], "solid.c2: only for solid.law mooney_rivlin_incompressible"),
     ("compressible_volume_correction", CSM, ["solid.volume_correction=true"],
      "solid.volume_correction: only for solid.law mooney_rivlin_incompressible"),
+    ("compressible_volume_correction_time", CSM, ["solid.volume_correction_time=0.002"],
+     "solid.volume_correction_time: only for solid.law mooney_rivlin_incompressible"),
     ("bad_clamp", CSM, ["geometry.clamp=round"], "geometry.clamp: must be one of straight, arc"),
     ("clamp_on_another_geometry", None, ["geometry.clamp=arc"], "geometry.clamp: only for geometry flag"),
     ("unknown_law", CSM, ["solid.law=hooke"], "solid.law: must be one of mooney_rivlin_incompressible, "

@@ -15,6 +15,7 @@ GEOMETRY_OF_BENCHMARK = {
     "turek_hron_cfd3": ("turek_hron", "rigid"),
     "turek_hron_csm1": ("flag", None),
     "turek_hron_csm2": ("flag", None),
+    "turek_hron_csm3": ("flag", None),
     "turek_hron_fsi1": ("turek_hron", "solid"),
     "turek_hron_fsi2": ("turek_hron", "solid"),
     "turek_hron_fsi3": ("turek_hron", "solid"),
@@ -27,7 +28,7 @@ GEOMETRY_OF_BENCHMARK = {
 Benchmark = Literal[
     "schaefer_turek_2d1", "schaefer_turek_2d2", "schaefer_turek_3d1z",
     "turek_hron_cfd1", "turek_hron_cfd2", "turek_hron_cfd3",
-    "turek_hron_csm1", "turek_hron_csm2",
+    "turek_hron_csm1", "turek_hron_csm2", "turek_hron_csm3",
     "turek_hron_fsi1", "turek_hron_fsi2", "turek_hron_fsi3",
     "seed_fsi3",
     "micropolar_poiseuille", "micropolar_taylor_green",

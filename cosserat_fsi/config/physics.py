@@ -130,9 +130,10 @@ class Solid(_Section):
                              f"(got {', '.join(given) or 'none'})")
         if self.c2:
             raise ValueError(f"solid.c2: only for solid.law {INCOMPRESSIBLE}")
-        if self.volume_correction:
-            raise ValueError(f"solid.volume_correction: only for solid.law {INCOMPRESSIBLE} (a compressible "
-                             "solid's volume follows its law)")
+        for key in ("volume_correction", "volume_correction_time"):
+            if getattr(self, key):
+                raise ValueError(f"solid.{key}: only for solid.law {INCOMPRESSIBLE} (a compressible "
+                                 "solid's volume follows its law)")
         return self
 
     @property
