@@ -22,6 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from cosserat_fsi.app import cases as app_cases
+from cosserat_fsi.io import read_timeseries
+from cosserat_fsi.references import load_references, parse_periodic
 
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
@@ -111,7 +113,8 @@ FSI_CASES = [
          "the shipped scene as it is: St Venant–Kirchhoff, BDF2 (ale_bdf2), δt = 0.005, L1, 10 s"),
     Case("csm3-L2-ale-dt0.005", "configs/turek_hron_csm3.yaml", {"geometry.level": 2}, SVK_CSM3),
     Case("csm3-L1-ale-dt0.01", "configs/turek_hron_csm3.yaml", {"time.dt": 0.01}, SVK_CSM3),
-    Case("fsi1-L1-dt0.01", "configs/turek_hron_fsi1.yaml", {**FSI1_STEPPING, **MR}, FSI1),
+    Case("fsi1-L1-dt0.01", "configs/turek_hron_fsi1.yaml",
+         {**FSI1_STEPPING, **MR, "geometry.flag_mesh": "unstructured"}, FSI1),
     Case("fsi3-seed-dt0.005", "configs/seed_fsi3.yaml", {"benchmark": "turek_hron_fsi3"}, FSI3,
          "the seed's settings (its mesh, law, δt = 0.005) against Turek–Hron FSI3"),
     Case("fsi3-seed-dt0.002", "configs/turek_hron_fsi3.yaml", {**C1, "geometry.level": "seed", "time.dt": 0.002},
@@ -152,14 +155,24 @@ STEADY_CASES = (
        Case("cfd2-L1-steady", "configs/turek_hron_cfd2.yaml", {**STEADY, "geometry.level": 1}, CFD12),
        Case("csm1-L1-steady", "configs/turek_hron_csm1.yaml", {**STEADY, "geometry.level": 1, **MR_FLAG}, CSM),
        Case("csm2-L1-steady", "configs/turek_hron_csm2.yaml", {**STEADY, "geometry.level": 1, **MR_FLAG}, CSM)]
-    + [Case(f"fsi1-L{level}-steady", "configs/turek_hron_fsi1.yaml", {**STEADY, "geometry.level": level, **MR},
+    + [Case(f"fsi1-L{level}-steady", "configs/turek_hron_fsi1.yaml",
+            {**STEADY, "geometry.level": level, **MR, "geometry.flag_mesh": "unstructured"},
             {**FSI1, "ux_A": 0.05, "lift": 0.05}) for level in range(4)]
     # the shipped scenes: the benchmarks' own solid, St Venant–Kirchhoff, ν = 0.4 (λ_s = 4 μ_s), on levels 1-3
     + [Case(f"{name}-L{level}-svk-steady", f"configs/turek_hron_{name}.yaml", {**STEADY, "geometry.level": level},
-            tolerances) for name, tolerances in (("csm1", SVK_CSM), ("csm2", SVK_CSM), ("fsi1", SVK_FSI1))
-       for level in (1, 2, 3)]
+            tolerances) for name, tolerances in (("csm1", SVK_CSM), ("csm2", SVK_CSM)) for level in (1, 2, 3)]
+    # FSI1 as shipped (a structured flag), and with the unstructured flag
+    + [Case(f"fsi1-L{level}-svk-{mesh}-steady", "configs/turek_hron_fsi1.yaml",
+            {**STEADY, "geometry.level": level, "geometry.flag_mesh": mesh}, SVK_FSI1)
+       for mesh in ("structured", "unstructured") for level in (1, 2, 3)]
 )
-LADDERS = {"st2d1": ("c_D", "c_L", "dp"), "fsi1": ("drag", "lift", "ux_A", "uy_A")}
+# title -> (case id of each level, observables)
+LADDERS = {"st2d1": ("st2d1-L{level}-steady", ("c_D", "c_L", "dp")),
+           "fsi1, the incompressible law": ("fsi1-L{level}-steady", ("drag", "lift", "ux_A", "uy_A")),
+           "fsi1 as shipped (St Venant–Kirchhoff, structured flag)":
+               ("fsi1-L{level}-svk-structured-steady", ("drag", "lift", "ux_A", "uy_A")),
+           "fsi1, St Venant–Kirchhoff, unstructured flag":
+               ("fsi1-L{level}-svk-unstructured-steady", ("drag", "lift", "ux_A", "uy_A"))}
 
 
 # Seed figures 5–6: amplitude of uy(A) against the solid parameter c₁ (μ_s = 2 c₁), the seed's settings,
@@ -256,10 +269,11 @@ timeseries.csv (tests/test_steady.py, FSI1), on both stacks.
 Steady scenes (`time.scheme: steady`, cosserat_fsi/scheme/steady.py, steady_solid.py): Newton on the steady
 residual (the time-continuous residual of seed eqs. 31-32 with the accelerations (u·∇)u and (u·∇)ω), MUMPS, from
 the Stokes iterate; continuation in the convection or the load when Newton from there fails (none of the
-shipped scenes needs it). CSM1/CSM2: static Newton on the reference mesh, P = J σ F⁻ᵀ with the same law
-σ = −pI + μ_s(I − B⁻¹); they agree with the time-stepping runs `csm1-L1`/`csm2-L1` to 0.6 % in 1 s instead
-of 110 s; the gap to the reference is the law (incompressible vs St. Venant–Kirchhoff ν = 0.4), unchanged
-from L1 to L3 (uy(A) +17.16, +17.10, +17.07 %). FSI1: one monolithic Newton solve for (u, d, p) on the
+shipped scenes needs it). CSM1/CSM2 with the incompressible law (rows `csm*-L1-steady`): static Newton on the
+reference mesh, P = J σ F⁻ᵀ with σ = −pI + μ_s(I − B⁻¹); they agree with the time-stepping runs
+`csm1-L1`/`csm2-L1` to 0.6 % in 1 s instead of 110 s; their gap to the reference is the law (incompressible
+vs St. Venant–Kirchhoff ν = 0.4), unchanged from L1 to L3 (uy(A) +17.16, +17.10, +17.07 %). FSI1 with that law
+(rows `fsi1-L*-steady`): one monolithic Newton solve for (u, d, p) on the
 reference mesh, the fluid in ALE form on the cells moved by d (4 s on L1 against 331 s for
 `fsi1-L1-dt0.01`, whose steady state also carries the scheme's O(δt) error). Its uy(A) moves with the mesh
 (+4.5, −3.6, −6.9 % on L1–L3) because the one continuous P1 pressure of the seed's discretisation ties the
@@ -268,25 +282,60 @@ with a separate P0 solid pressure (an experiment, not shipped) uy(A) is −8.4/�
 the stiffer incompressible law's deflection: the +2.8 % of `fsi1-L1-dt0.01` and the +4.5 % here are partly
 a cancellation of that softening against the law's extra stiffness.
 
-Compressible solids (`solid.law: saint_venant_kirchhoff`, the benchmarks' own law, ν = 0.4, λ_s = 4μ_s;
-physics/materials.py): P = F S in the solid, the pressure in the fluid only (p = 0
-at the solid's own pressure dofs, the interface's kept by the fluid's continuity equation). CSM1 on L0/L1/L2/L3
-with the benchmark's clamp on the cylinder's arc (`geometry.clamp: arc`): ux(A) −0.24/−0.06/−0.01/−0.002 %,
-uy(A) −0.13/−0.03/−0.01/0.000 % (the incompressible law: +31.7 % / +17.2 %); CSM2: ux(A) −0.26/−0.07/−0.02/
-−0.008 %, uy(A) −0.12/−0.02/+0.01/+0.02 %. The straight clamp (the `flag` default) converges to −1.4 % / −0.8 %
-instead (CSM1 L1/L2/L3 ux −1.54/−1.45/−1.42 %, uy −0.88/−0.84/−0.82 %): 1 mm of clamp at the flag's edges. FSI1 on
-L1/L2/L3 (geometry turek_hron, clamped on the arc): ux(A) −0.41/−0.21/−0.14 %, uy(A) −0.34/−1.03/−0.64 %, drag
-+0.06/+0.09/+0.06 %, lift −0.64/+0.04/+0.05 % (the incompressible law: uy(A) +4.5/−3.6/−6.9 %, lift −2.9 % on
-L1). Cases `csm1-L*-svk-steady`, `csm2-L*-svk-steady`, `fsi1-L*-svk-steady`; level 0 is pinned in
-tests/test_steady.py. Time stepping (tests/test_compressible_solid.py): CSM3's first swing on level 0 at
-δt = 0.01 reaches uy(A) = −129.07 mm at t = 0.46 s against the published mean − amplitude −128.77 mm at half
-the period, 0.455 s (level 1, δt = 0.005, characteristics2: the next minimum 0.915 s later, −0.6 % in
-frequency). A very soft St Venant–Kirchhoff flag (μ_s = 5·10⁴) in a 1 m/s flow inverts a solid cell within
-0.07 s where the neo-Hookean law runs: unlike an incompressible one, a compressible solid feels the pressure
-level, and the fluid's acceleration pressure during the 0.1 s ramp, ρ L dU/dt ≈ 2·10⁴ Pa, squeezes that flag
-(plane-strain bulk modulus λ + μ = 2.5·10⁵ Pa) by ≈ 8 %, where SVK softens (an estimate: the neo-Hookean flag
-shortens by 15 mm, 4 %, against 3.4 mm for the incompressible law). The shipped scenes still carry the
-incompressible law."""
+**Solids: the benchmarks' own law.** The shipped CSM1, CSM2, CSM3, FSI1 and FSI3 scenes carry the
+Turek–Hron solid: St Venant–Kirchhoff, plane strain, ν = 0.4 (`solid.law: saint_venant_kirchhoff`,
+λ_s = 4μ_s; physics/materials.py). In the monolithic step its Cauchy stress σ(d) = J⁻¹FSFᵀ (F⁻¹ = I − ∇d)
+is linearised around d* as eq. (28) linearises the seed's law, one linear solve per step; in the steady
+solver P = F S on the reference mesh.
+
+**Where the pressure lives.** A compressible solid's volume follows its law, so the continuity equation
+and the pressure are the fluid's: the pressure test functions act in the fluid cells (−(χ_f p, div v)),
+and the pressure dofs of the solid that no fluid cell shares are fixed at 0 (dofs on the interface keep the
+fluid's continuity equation). The alternative that was measured, the seed's one continuous P1 pressure
+through the solid with div u = 0 there (the incompressible law), ties the solid's pressure to the fluid's on
+the interface and softens a solid a few cells thick: a strip 2 cells thick (campaigns/thin_strip.py: L/h = 20,
+clamped in a fluid 1000× lighter, a small weight switched on at t = 0) swings at −30 % of Euler–Bernoulli's
+frequency with the incompressible law (bending-equivalent μ_s = E'/4), at −0.86 % with St Venant–Kirchhoff, and
+−0.92 % / −0.92 % with 4 and 8 cells across (what is left is the fluid's added mass, ≈ −0.8 %, and shear and
+rotary inertia, ≈ −0.3 %; tests/test_compressible_solid.py runs the 2-cell strip). FSI1's tip deflection with
+the incompressible law moved away from the reference under refinement (uy(A) +4.5, −3.6, −6.9 % on L1–L3);
+with a separate P0 solid pressure (an experiment, not shipped) it went to −8.4/−10.1 % on L1/L2, towards
+that law's 20 % excess stiffness (4μ_s against E/(1 − ν²) = 3.33μ_s).
+
+**CSM1, CSM2** (steady, clamped on the cylinder's arc, `geometry.clamp: arc`): the level ladders in the table
+above (`csm*-L*-svk-steady`), within 0.1 % from level 1 on. A straight clamp (the `flag` geometry's default)
+converges to −1.4 % / −0.8 % (CSM1 L1/L2/L3 ux −1.54/−1.45/−1.42 %, uy −0.88/−0.84/−0.82 %): it holds 1 mm of
+the flag's edges that the arc leaves free.
+
+**CSM3** (the flag released under gravity, undamped; BDF2, `ale_bdf2`): the shipped scene (L1, δt = 0.005,
+10 s) has every amplitude within 0.8 % and the frequency within 0.5 %; the energy line above gives the drift of
+the total energy (BDF2 damps the higher modes the sudden load excites: the energy only falls). Level 0 at
+δt = 0.01 (tests/test_compressible_solid.py): −0.34 % per period for both laws, −0.13 % at δt = 0.005.
+
+**FSI1** (steady): the shipped scene meshes the flag structured (`geometry.flag_mesh: structured`, 4, 8, 16
+cells across on L1–L3): uy(A) +1.71, −0.65, −0.45 %, the change from level to level shrinking 11× (L1→L2
+−2.3 %, L2→L3 +0.2 %); ux(A), drag and lift within 0.6 % on every level. With the unstructured flag uy(A) is
+−0.34, −1.03, −0.64 % (changes −0.7 %, +0.4 %): the same limit, ≈ 0.817·10⁻³ (−0.45 %), reached less regularly.
+
+**FSI3** (`ale_bdf2`, δt = 0.005, L1, as shipped) against the benchmark authors' refined values (FeatFlow:
+uy(A) 1.47 ± 34.99 mm [5.46 Hz], drag 460.5 ± 27.74 [10.93 Hz], lift 2.50 ± 153.91 [5.46 Hz]): uy(A)
+amplitude +1.6 %, frequency −0.56 %. At δt = 0.0025 (same mesh): +1.8 % / −0.05 %, drag 463.7 ± 28.7 [10.91 Hz]
+(+0.7 % / +3.5 % / −0.15 %), lift amplitude 153.2 (−0.45 %). Against the 2006 paper's 34.38 mm [5.3 Hz] the same
+runs are +3.4 % / +2.4 % and +3.6 % / +3.0 %: the frequency moves away from 5.3 Hz as δt falls, towards 5.46 Hz,
+and turtleFSI (St Venant–Kirchhoff as well) reports +2.2 % against 5.3 Hz. The incompressible law's
++2.9 % / +0.95 % against the 2006 values (the `fsi3-*` rows above) was a cancellation of its 20 % excess
+bending stiffness against the scheme's errors: against the refined values it is +1.1 % / −2.0 %. Since
+`cosserat_fsi/references.py` compares FSI3 with the refined values by default (`source="paper_2006"` gives the
+2006 ones); the `fsi3-*` rows of the incompressible law above were measured against the 2006 values.
+
+**Limits.** The weight and the inertia are ρ_s per current volume: exact for the incompressible law, O(J − 1)
+for a compressible one (J − 1 ≈ 10⁻³ in these benchmarks). A very soft St Venant–Kirchhoff flag (μ_s = 5·10⁴)
+in a 1 m/s flow inverts a solid cell within 0.07 s where the neo-Hookean law runs: a compressible solid feels
+the pressure level, and the fluid's acceleration pressure during the 0.1 s ramp, ρ L dU/dt ≈ 2·10⁴ Pa, squeezes
+that flag (plane-strain bulk modulus λ + μ = 2.5·10⁵ Pa) by ≈ 8 %, where St Venant–Kirchhoff softens (the
+neo-Hookean flag shortens by 15 mm, 4 %, against 3.4 mm for the incompressible law). A manufactured solution
+through the Eulerian stress (tests/test_materials.py) converges with order 3 for both laws up to |∇d| = 0.13;
+at |∇d| = 0.25 Newton for St Venant–Kirchhoff stalls on the 8 × 8 mesh where neo-Hookean converges."""
 
 
 def run_case(case: Case, runs: Path, python: str | None = None, fields: bool = False) -> Path:
@@ -381,12 +430,12 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
     return rows
 
 
-def steady_ladder(runs: Path, group: str, keys: tuple) -> list[str]:
-    """Errors of the steady ``<group>-L<level>-steady`` runs per level and the observed order
+def steady_ladder(runs: Path, pattern: str, keys: tuple) -> list[str]:
+    """Errors of the steady runs ``pattern.format(level=...)`` per level and the observed order
     log2(e_l / e_{l+1}) (the mesh size halves per level); Newton iterations and wall time."""
     found = []
     for level in range(8):
-        path = runs / f"{group}-L{level}-steady" / "summary.json"
+        path = runs / pattern.format(level=level) / "summary.json"
         if path.exists():
             found.append((level, json.loads(path.read_text())))
     if not found:
@@ -406,6 +455,29 @@ def steady_ladder(runs: Path, group: str, keys: tuple) -> list[str]:
                     + f" | {s.get('newton', {}).get('iterations', '–')} | {s['wall_time']['total']:.1f} |")
         previous = errors
     return rows
+
+
+def energy_drift(run: Path, frequency: float) -> float | None:
+    """The change of the total energy over the run per period of ``frequency``, relative to the largest
+    kinetic energy (an undamped solid: 0; numerical damping: negative), or None without a time series."""
+    path = run / "timeseries.csv"
+    if not path.exists():
+        return None
+    series = read_timeseries(path)
+    t, total, kinetic = series["t"], series["energy_total"], series["energy_kinetic"]
+    return float((total[-1] - total[0]) / kinetic.max() / ((t[-1] - t[0]) * frequency))
+
+
+def energy_lines(runs: Path) -> list[str]:
+    """The CSM3 runs' energy drift per period (the flag undamped, gravity on from t = 0)."""
+    frequency = parse_periodic(load_references()["turek_hron"]["cases"]["CSM3"]["uy_A"])["frequency"]
+    rows = []
+    for case in (c for c in FSI_CASES if c.id.startswith("csm3-")):
+        drift = energy_drift(runs / case.id, frequency)
+        if drift is not None:
+            rows.append(f"`{case.id}` {100 * drift:+.3f} %")
+    return (["CSM3, total energy (kinetic + stored + the weight's potential) per period, relative to the largest "
+             "kinetic energy: " + ", ".join(rows) + " (target: within ±0.5 %)."] if rows else [])
 
 
 def cheapest(cases, runs: Path, previous: dict | None = None) -> list[str]:
@@ -621,11 +693,14 @@ def write_report(cases, runs: Path, out: Path) -> Path:
     for case in cases:
         if case.note:
             lines.append(f"- `{case.id}`: {case.note}")
-    for group, keys in LADDERS.items():
-        ladder = steady_ladder(runs, group, keys)
+    for group, (pattern, keys) in LADDERS.items():
+        ladder = steady_ladder(runs, pattern, keys)
         if ladder:
             lines += ["", f"Steady {group} by Newton, level ladder (relative errors; order = log2 of the error "
                       "ratio of consecutive levels, h halves per level):", "", *ladder]
+    energy = energy_lines(runs)
+    if energy:
+        lines += ["", *energy]
     lines += ["", STEADY_NOTES]
     lines += ["", "Cosserat FSI (seed figures 3–10) and the physics sanity check (Navier–Stokes with μ and with "
               "μ + μ_r bracket the micropolar fluid): [seed_reproduction.md](seed_reproduction.md) (`make figures`). "

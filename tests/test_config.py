@@ -161,6 +161,9 @@ BAD = [
     ("compressible_volume_correction_time", CSM, ["solid.volume_correction_time=0.002"],
      "solid.volume_correction_time: only for solid.law mooney_rivlin_incompressible"),
     ("bad_clamp", CSM, ["geometry.clamp=round"], "geometry.clamp: must be one of straight, arc"),
+    ("structured_rigid_flag", None, ["geometry.name=turek_hron", "geometry.flag=rigid",
+                                     "geometry.flag_mesh=structured"],
+     "geometry.flag_mesh: structured needs geometry.flag solid"),
     ("clamp_on_another_geometry", None, ["geometry.clamp=arc"], "geometry.clamp: only for geometry flag"),
     ("unknown_law", CSM, ["solid.law=hooke"], "solid.law: must be one of mooney_rivlin_incompressible, "
      "saint_venant_kirchhoff, neo_hookean"),

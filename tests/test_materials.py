@@ -182,7 +182,8 @@ def _manufactured_error(law, n, comm=MPI.COMM_WORLD):
     dx = ufl.dx(domain=mesh, metadata={"quadrature_degree": 8})
     residual = (ufl.inner(materials.cauchy_stress(law, d, MU, LAM), ufl.grad(v)) - ufl.inner(f, v)) * dx
     boundary = dolfinx.fem.Function(V)
-    boundary.interpolate(lambda y: 0.04 * np.vstack([np.sin(np.pi * y[0]) * y[1], np.cos(0.5 * np.pi * y[1]) * y[0] ** 2]))
+    boundary.interpolate(lambda y: 0.04 * np.vstack([np.sin(np.pi * y[0]) * y[1],
+                                                     np.cos(0.5 * np.pi * y[1]) * y[0] ** 2]))
     d.x.array[:] = boundary.x.array  # Newton from the interpolant (from 0 the boundary cells invert)
     mesh.topology.create_connectivity(1, 2)
     facets = dolfinx.mesh.exterior_facet_indices(mesh.topology)

@@ -5,7 +5,9 @@ its top, bottom and right edges are interior facets tagged ``interface`` (5), th
 to the cylinder is tagged ``cylinder`` (4) like the rest of the circle. ``flag: rigid``: the flag is a hole
 in the fluid, its three free edges are exterior facets tagged 5. A = (0.6, 0.2) and B = (0.15, 0.2) are
 mesh vertices. Sizes: Threshold on the distance to cylinder and flag, h = 0.014 on them growing to
-0.07 at distance 0.3, both halved per level ("seed" scales level 0 by ``SEED_SCALE``).
+0.07 at distance 0.3, both halved per level ("seed" scales level 0 by ``SEED_SCALE``). ``flag_mesh:
+structured``: the flag's triangles transfinite, 2, 4, 8, 16 across on levels 0-3 and square along it (the
+fluid's sizes unchanged); its tip deflection converges more regularly under refinement (docs/validation.md).
 
 Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %), L0 / L1 / L2 / L3 / seed:
 solid flag 784 / 2,843 / 10,916 / 42,416 / 2,179 (seed paper: 2,199); rigid 758 / 2,723 / 10,378 / 40,211 / 2,087.
@@ -18,6 +20,8 @@ import math
 
 from ..tags import CELL_TAGS, FACET_TAGS
 from . import _gmsh
+from pydantic import model_validator
+
 from ._model import GeometryBase
 
 LENGTH, HEIGHT = 2.5, 0.41
@@ -30,19 +34,30 @@ H_MIN, H_MAX, DIST_MAX = 0.014, 0.07, 0.3
 
 class TurekHron(GeometryBase):
     """Channel 2.5 x 0.41 with a cylinder and a flag: ``flag: solid`` (an elastic flag, FSI) or ``rigid`` (a hole
-    in the fluid, CFD)."""
+    in the fluid, CFD); ``flag_mesh``: ``unstructured`` (default) or ``structured`` (transfinite, 2·2^level
+    cells across the flag)."""
 
     SEED: ClassVar[bool] = True
     INFLOW: ClassVar[bool] = True
     name: Literal["turek_hron"] = "turek_hron"
     flag: Literal["solid", "rigid"] = "solid"
+    flag_mesh: Literal["unstructured", "structured"] = "unstructured"
 
     @property
     def solid_cells(self) -> bool:
         return self.flag == "solid"
 
+    @model_validator(mode="after")
+    def _flag_mesh(self):
+        if self.flag_mesh == "structured" and self.flag != "solid":
+            raise ValueError("geometry.flag_mesh: structured needs geometry.flag solid")
+        return self
+
     def msh_params(self) -> dict[str, Any]:
-        return {"flag": self.flag}
+        params = {"flag": self.flag}
+        if self.flag_mesh == "structured":  # (unstructured meshes keep their cache key)
+            params["flag_mesh"] = self.flag_mesh
+        return params
 
 
 def describe(params: dict[str, Any]) -> dict[str, Any]:
@@ -86,6 +101,30 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     curves = _gmsh.classify_channel_curves(gmsh, LENGTH, HEIGHT, (*CENTRE, RADIUS))
     for name, tags in curves.items():
         _gmsh.add_physical(gmsh, 1, tags, name)
+    if params.get("flag_mesh") == "structured":
+        _structured_flag(gmsh, solid, curves, scale)
     near = curves["cylinder"] + curves["interface"]
     _gmsh.threshold_field(gmsh, near, H_MIN * scale, H_MAX * scale, 0.0, DIST_MAX)
     gmsh.model.mesh.generate(2)
+
+
+def _structured_flag(gmsh, solid: list[int], curves: dict, scale: float) -> None:
+    """Transfinite triangles in the flag: 2/``scale`` cells across (2, 4, 8, ... on levels 0, 1, 2), square
+    cells along it; its corners the arc's ends and the tip's two corners (A splits the tip)."""
+    across = 2 * max(1, round(1.0 / scale))
+    thickness = FLAG_Y[1] - FLAG_Y[0]
+    along = round((FLAG_END - FLAG_START) / (thickness / across))
+    (surface,) = solid
+    mesh = gmsh.model.mesh
+    boundary = [abs(t) for _, t in gmsh.model.getBoundary([(2, surface)], oriented=False)]
+    arc = [c for c in boundary if c in curves.get("cylinder", [])]  # the clamp (split at y = 0.2 or not)
+    tip = [c for c in boundary if abs(_gmsh.curve_midpoint(gmsh, c)[0] - FLAG_END) < 1e-9]  # split at A
+    for curve in boundary:
+        parts = arc if curve in arc else tip if curve in tip else [curve]
+        mesh.setTransfiniteCurve(curve, (across if len(parts) > 1 or curve in arc + tip else along) // len(parts) + 1)
+    points = {abs(t): gmsh.model.getValue(0, abs(t), [])[:2]
+              for _, t in gmsh.model.getBoundary([(2, surface)], oriented=False, recursive=True)}
+    corners = [t for t, (x, y) in points.items() if abs(y - CENTRE[1]) > 1e-9]  # not A nor the arc's middle
+    middle = (0.5 * (FLAG_START + FLAG_END), CENTRE[1])  # the corners in order around the flag
+    corners.sort(key=lambda t: math.atan2(points[t][1] - middle[1], points[t][0] - middle[0]))
+    mesh.setTransfiniteSurface(surface, "Left", corners)
