@@ -300,7 +300,10 @@ frequency with the incompressible law (bending-equivalent μ_s = E'/4), at −0.
 rotary inertia, ≈ −0.3 %; tests/test_compressible_solid.py runs the 2-cell strip). FSI1's tip deflection with
 the incompressible law moved away from the reference under refinement (uy(A) +4.5, −3.6, −6.9 % on L1–L3);
 with a separate P0 solid pressure (an experiment, not shipped) it went to −8.4/−10.1 % on L1/L2, towards
-that law's 20 % excess stiffness (4μ_s against E/(1 − ν²) = 3.33μ_s).
+that law's 20 % excess stiffness (4μ_s against E/(1 − ν²) = 3.33μ_s). Before the compressible laws, the
+shipped scenes used a "bending-equivalent" μ_s (5/6 of the benchmark's) with the incompressible law, which fits
+one deformation mode of one geometry: CSM1/CSM2 +3.2 % / +1.5 % (ux, uy; L1, first order), FSI1 uy(A) +12 %,
+FSI3 (seed mesh, first order, δt = 0.002) −16 % / −6.2 %.
 
 **CSM1, CSM2** (steady, clamped on the cylinder's arc, `geometry.clamp: arc`): the level ladders in the table
 above (`csm*-L*-svk-steady`), within 0.1 % from level 1 on. A straight clamp (the `flag` geometry's default)
@@ -308,23 +311,27 @@ converges to −1.4 % / −0.8 % (CSM1 L1/L2/L3 ux −1.54/−1.45/−1.42 %, uy
 the flag's edges that the arc leaves free.
 
 **CSM3** (the flag released under gravity, undamped; BDF2, `ale_bdf2`): the shipped scene (L1, δt = 0.005,
-10 s) has every amplitude within 0.8 % and the frequency within 0.5 %; the energy line above gives the drift of
-the total energy (BDF2 damps the higher modes the sudden load excites: the energy only falls). Level 0 at
-δt = 0.01 (tests/test_compressible_solid.py): −0.34 % per period for both laws, −0.13 % at δt = 0.005.
+10 s) has every amplitude within 0.8 % and the frequency within 0.5 % (level 2 the same to 0.04 points;
+δt = 0.01: frequency −0.57 %, so what is left is mostly the reference's or the scheme's at δt = 0.005); the
+energy line above gives the drift of the total energy (BDF2 damps the higher modes the sudden load excites: the
+energy only falls). Level 0 at δt = 0.01 (tests/test_compressible_solid.py): −0.34 % per period for both laws,
+−0.13 % at δt = 0.005.
 
 **FSI1** (steady): the shipped scene meshes the flag structured (`geometry.flag_mesh: structured`, 4, 8, 16
 cells across on L1–L3): uy(A) +1.71, −0.65, −0.45 %, the change from level to level shrinking 11× (L1→L2
 −2.3 %, L2→L3 +0.2 %); ux(A), drag and lift within 0.6 % on every level. With the unstructured flag uy(A) is
-−0.34, −1.03, −0.64 % (changes −0.7 %, +0.4 %): the same limit, ≈ 0.817·10⁻³ (−0.45 %), reached less regularly.
+−0.34, −1.03, −0.64 % (changes −0.7 %, +0.4 %): both approach ≈ 0.817·10⁻³ (−0.4 … −0.6 %), the unstructured
+flag less regularly.
 
 **FSI3** (`ale_bdf2`, δt = 0.005, L1, as shipped) against the benchmark authors' refined values (FeatFlow:
 uy(A) 1.47 ± 34.99 mm [5.46 Hz], drag 460.5 ± 27.74 [10.93 Hz], lift 2.50 ± 153.91 [5.46 Hz]): uy(A)
-amplitude +1.6 %, frequency −0.56 %. At δt = 0.0025 (same mesh): +1.8 % / −0.05 %, drag 463.7 ± 28.7 [10.91 Hz]
+amplitude +1.6 %, frequency −0.56 % (seed mesh: +0.71 % / −0.77 %). At δt = 0.0025 (same mesh): +1.8 % / −0.05 %,
+drag 463.7 ± 28.7 [10.91 Hz]
 (+0.7 % / +3.5 % / −0.15 %), lift amplitude 153.2 (−0.45 %). Against the 2006 paper's 34.38 mm [5.3 Hz] the same
 runs are +3.4 % / +2.4 % and +3.6 % / +3.0 %: the frequency moves away from 5.3 Hz as δt falls, towards 5.46 Hz,
 and turtleFSI (St Venant–Kirchhoff as well) reports +2.2 % against 5.3 Hz. The incompressible law's
 +2.9 % / +0.95 % against the 2006 values (the `fsi3-*` rows above) was a cancellation of its 20 % excess
-bending stiffness against the scheme's errors: against the refined values it is +1.1 % / −2.0 %. Since
+bending stiffness against the scheme's errors: against the refined values it is +1.1 % / −2.0 %.
 `cosserat_fsi/references.py` compares FSI3 with the refined values by default (`source="paper_2006"` gives the
 2006 ones); the `fsi3-*` rows of the incompressible law above were measured against the 2006 values.
 
