@@ -71,8 +71,7 @@ def write_geo(folder: Path, across: int) -> Path:
     return path
 
 
-def scene(geo: Path, law: str = "saint_venant_kirchhoff", dt: float = 0.01, t_end: float = 3.0,
-          fluid: bool = True) -> dict:
+def scene(geo: Path, law: str = "saint_venant_kirchhoff", dt: float = 0.01, t_end: float = 3.0) -> dict:
     """The scene (a dict for ``validate_scene``) of the strip meshed in ``geo``."""
     solid = {"rho": RHO_S, "gravity": GRAVITY}
     if law == "mooney_rivlin_incompressible":  # the same bending stiffness 4μ = E'
@@ -106,8 +105,8 @@ def run(scene_dict: dict, comm=MPI.COMM_WORLD) -> dict[str, np.ndarray]:
 
 
 def frequency(t: np.ndarray, y: np.ndarray) -> float:
-    """The oscillation's frequency from its upward crossings of the mean (linear interpolation), over the
-    whole crossings after the first."""
+    """The oscillation's frequency: the number of periods between its first and last upward crossings of
+    the middle of its range (crossing times by linear interpolation) over the time between them."""
     z = y - 0.5 * (y.max() + y.min())
     up = np.nonzero((z[:-1] < 0) & (z[1:] >= 0))[0]
     times = t[up] - z[up] * (t[up + 1] - t[up]) / (z[up + 1] - z[up])

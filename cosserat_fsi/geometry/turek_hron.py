@@ -19,9 +19,9 @@ from typing import Any, ClassVar, Literal
 import math
 
 from ..tags import CELL_TAGS, FACET_TAGS
-from . import _gmsh
 from pydantic import model_validator
 
+from . import _gmsh
 from ._model import GeometryBase
 
 LENGTH, HEIGHT = 2.5, 0.41
@@ -119,9 +119,9 @@ def _structured_flag(gmsh, solid: list[int], curves: dict, scale: float) -> None
     boundary = [abs(t) for _, t in gmsh.model.getBoundary([(2, surface)], oriented=False)]
     arc = [c for c in boundary if c in curves.get("cylinder", [])]  # the clamp (split at y = 0.2 or not)
     tip = [c for c in boundary if abs(_gmsh.curve_midpoint(gmsh, c)[0] - FLAG_END) < 1e-9]  # split at A
-    for curve in boundary:
-        parts = arc if curve in arc else tip if curve in tip else [curve]
-        mesh.setTransfiniteCurve(curve, (across if len(parts) > 1 or curve in arc + tip else along) // len(parts) + 1)
+    for curve in boundary:  # the clamp and the tip share the cells across; the top and bottom are along
+        side = arc if curve in arc else tip if curve in tip else None
+        mesh.setTransfiniteCurve(curve, (across // len(side) if side else along) + 1)
     points = {abs(t): gmsh.model.getValue(0, abs(t), [])[:2]
               for _, t in gmsh.model.getBoundary([(2, surface)], oriented=False, recursive=True)}
     corners = [t for t, (x, y) in points.items() if abs(y - CENTRE[1]) > 1e-9]  # not A nor the arc's middle
