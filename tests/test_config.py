@@ -161,6 +161,8 @@ BAD = [
     ("compressible_volume_correction_time", CSM, ["solid.volume_correction_time=0.002"],
      "solid.volume_correction_time: only for solid.law mooney_rivlin_incompressible"),
     ("bad_clamp", CSM, ["geometry.clamp=round"], "geometry.clamp: must be one of straight, arc"),
+    ("bad_flag_mesh", None, ["geometry.name=turek_hron", "geometry.flag_mesh=quads"],
+     "geometry.flag_mesh: must be one of unstructured, structured"),
     ("structured_rigid_flag", None, ["geometry.name=turek_hron", "geometry.flag=rigid",
                                      "geometry.flag_mesh=structured"],
      "geometry.flag_mesh: structured needs geometry.flag solid"),
