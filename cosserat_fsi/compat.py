@@ -229,3 +229,8 @@ def versions() -> dict:
         "mpi": MPI.Get_library_version().splitlines()[0].strip().strip("\x00"),
         "mumps": bool(PETSc.Sys.hasExternalPackage("mumps")),
     }
+
+
+def atan2(y, x):
+    """UFL's two-argument arctangent: ``ufl.atan_2`` (ufl 2022) or ``ufl.atan2`` (newer)."""
+    return (ufl.atan2 if hasattr(ufl, "atan2") else ufl.atan_2)(y, x)

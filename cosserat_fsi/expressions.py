@@ -2,10 +2,14 @@
 
 ``parse(text)`` turns e.g. ``"1.5*y*(0.41-y)/0.042025 * (1 - cos(pi*min(t, 2)/2))/2"`` into an
 :class:`Expression`: a tree of numbers, the symbols x, y, z, t, pi, the operators + - * / ** (unary + -),
-parentheses and the functions sin cos tan exp log sqrt tanh abs min max. Python's ``ast`` only *parses* the
-text (``ast.parse(mode="eval")``, no compile, no eval); the tree is then walked with an explicit whitelist of
-node types and names: anything else (an attribute, a subscript, a call of another name, a lambda, a string,
-a keyword argument, a comparison, ...) is refused with one line, and nothing of the text is ever executed.
+parentheses and the functions sin cos tan asin acos atan atan2(y, x) sinh cosh tanh exp log sqrt abs min max,
+and ``where(cond, a, b)`` (a where cond holds, else b) with cond one comparison ``<  <=  >  >=  ==  !=`` of two
+expressions, e.g. ``where(t < 1, t, 1)``; a comparison is allowed only there. Python's ``ast`` only *parses*
+the text (``ast.parse(mode="eval")``, no compile, no eval); the tree is then walked with an explicit whitelist
+of node types and names: anything else (an attribute, a subscript, a call of another name, a lambda, a string,
+a keyword argument, a boolean operator, ...) is refused with one line, and nothing of the text is ever executed.
+Numbers are IEEE doubles: ``1/0``, ``10**400``, ``exp(1000)`` evaluate to inf, and the boundary code refuses
+values that are not finite (``finite_at``).
 
 The same tree is evaluated with numpy (``evaluate(x, t)``, for interpolating Dirichlet data into a
 Function) or built as a UFL expression (``to_ufl(x, t)`` with x the SpatialCoordinate and t a Constant,
@@ -21,7 +25,9 @@ from typing import Any
 
 COORDINATES = ("x", "y", "z")
 SYMBOLS = (*COORDINATES, "t", "pi")
-FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "exp": 1, "log": 1, "sqrt": 1, "tanh": 1, "abs": 1, "min": 2, "max": 2}
+FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "asin": 1, "acos": 1, "atan": 1, "atan2": 2, "sinh": 1, "cosh": 1,
+             "tanh": 1, "exp": 1, "log": 1, "sqrt": 1, "abs": 1, "min": 2, "max": 2, "where": 3}
+COMPARISONS = {"Lt": "<", "LtE": "<=", "Gt": ">", "GtE": ">=", "Eq": "==", "NotEq": "!="}
 MAX_LENGTH = 2000
 MAX_DEPTH = 60
 
@@ -33,7 +39,7 @@ class ExpressionError(ValueError):
 @dataclass(frozen=True)
 class Expression:
     """A parsed expression: ``text`` and its tree (nested tuples: ("num", v), ("sym", name),
-    ("neg", a), ("add"|"sub"|"mul"|"div"|"pow", a, b), ("call", name, args))."""
+    ("neg", a), ("add"|"sub"|"mul"|"div"|"pow", a, b), ("call", name, args), ("cmp", op, a, b))."""
 
     text: str
     tree: tuple
@@ -46,8 +52,8 @@ class Expression:
         def walk(node):
             if node[0] == "sym":
                 found.add(node[1])
-            elif node[0] == "call":
-                for a in node[2]:
+            elif node[0] in ("call", "cmp"):
+                for a in node[2:] if node[0] == "cmp" else node[2]:
                     walk(a)
             elif node[0] != "num":
                 for a in node[1:]:
@@ -66,22 +72,43 @@ class Expression:
 
         n = x.shape[1]
         env = {"x": x[0], "y": x[1], "z": x[2], "t": float(t), "pi": math.pi}
-        funcs = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
-                 "tanh": np.tanh, "abs": np.abs, "min": np.minimum, "max": np.maximum}
-        with np.errstate(all="ignore"):
+        funcs = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
+                 "atan": np.arctan, "atan2": np.arctan2, "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
+                 "exp": np.exp, "log": np.log, "sqrt": np.sqrt, "abs": np.abs, "min": np.minimum,
+                 "max": np.maximum, "where": np.where, "cmp": _NUMPY_COMPARE, "num": np.float64}
+        with np.errstate(all="ignore"):  # IEEE: inf and nan, never an exception (finite_at checks)
             value = _build(self.tree, env, funcs)
         return np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+
+    def finite_at(self, x, t: float) -> bool:
+        """True if the values at points ``x`` (shape (3, n)) and time ``t`` are all finite."""
+        import numpy as np
+
+        return bool(np.all(np.isfinite(self.evaluate(x, t))))
 
     def to_ufl(self, x, t):
         """The UFL expression for spatial coordinate ``x`` and time ``t`` (a Constant)."""
         import ufl
 
         env = {"x": x[0], "y": x[1], "z": x[2] if len(x) > 2 else 0.0, "t": t, "pi": math.pi}
-        funcs = {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "exp": ufl.exp, "log": ufl.ln, "sqrt": ufl.sqrt,
-                 "tanh": ufl.tanh, "abs": abs, "min": ufl.min_value, "max": ufl.max_value}
+        from cosserat_fsi import compat
+
+        funcs = {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "asin": ufl.asin, "acos": ufl.acos,
+                 "atan": ufl.atan, "atan2": compat.atan2, "sinh": ufl.sinh, "cosh": ufl.cosh, "tanh": ufl.tanh,
+                 "exp": ufl.exp, "log": ufl.ln, "sqrt": ufl.sqrt, "abs": abs, "min": ufl.min_value,
+                 "max": ufl.max_value, "where": ufl.conditional, "num": float,
+                 "cmp": {"<": ufl.lt, "<=": ufl.le, ">": ufl.gt, ">=": ufl.ge, "==": ufl.eq, "!=": ufl.ne}}
         return _build(self.tree, env, funcs)
 
 
+def _compare(op):
+    import operator
+
+    return {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge, "==": operator.eq,
+            "!=": operator.ne}[op]
+
+
+_NUMPY_COMPARE = {op: _compare(op) for op in COMPARISONS.values()}
 _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
 
 
@@ -136,18 +163,33 @@ def _walk(node: ast.AST, text: str, depth: int) -> tuple:
             raise ExpressionError(f"unknown function {name!r} in {text!r} (allowed: {', '.join(FUNCTIONS)})")
         if node.keywords or len(node.args) != FUNCTIONS[name]:
             raise ExpressionError(f"{name} takes {FUNCTIONS[name]} argument(s) in {text!r}")
+        if name == "where":
+            return ("call", name, (_condition(node.args[0], text, depth + 1),
+                                   *(_walk(a, text, depth + 1) for a in node.args[1:])))
         return ("call", name, tuple(_walk(a, text, depth + 1) for a in node.args))
     what = {ast.Attribute: "an attribute", ast.Subscript: "a subscript", ast.Lambda: "a lambda",
-            ast.Compare: "a comparison", ast.BoolOp: "a boolean operator", ast.IfExp: "a conditional",
+            ast.Compare: "a comparison outside where(cond, a, b)", ast.BoolOp: "a boolean operator", ast.IfExp: "a conditional",
             ast.Constant: "a constant that is not a number"}.get(type(node), f"a {type(node).__name__}")
     raise ExpressionError(f"{what} is not allowed in {text!r} (numbers, x, y, z, t, pi, + - * / **, "
                           "parentheses and the functions " + ", ".join(FUNCTIONS) + ")")
 
 
+def _condition(node: ast.AST, text: str, depth: int) -> tuple:
+    """The first argument of where: one comparison of two expressions."""
+    if not isinstance(node, ast.Compare):
+        raise ExpressionError(f"where(cond, a, b) needs a comparison (< <= > >= == !=) as cond in {text!r}")
+    if len(node.ops) != 1 or type(node.ops[0]).__name__ not in COMPARISONS:
+        raise ExpressionError(f"where's cond is one comparison (< <= > >= == !=; nest where for more) in {text!r}")
+    op = COMPARISONS[type(node.ops[0]).__name__]
+    return ("cmp", op, _walk(node.left, text, depth + 1), _walk(node.comparators[0], text, depth + 1))
+
+
 def _build(node: tuple, env: dict, funcs: dict):
     kind = node[0]
     if kind == "num":
-        return node[1]
+        return funcs["num"](node[1])
+    if kind == "cmp":
+        return funcs["cmp"][node[1]](_build(node[2], env, funcs), _build(node[3], env, funcs))
     if kind == "sym":
         return env[node[1]]
     if kind == "neg":

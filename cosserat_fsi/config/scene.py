@@ -12,7 +12,7 @@ from cosserat_fsi.geometry import Geometry
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
 from .physics import Fluid, Inflow, Micropolar, Solid
-from .sections import BoundaryCondition, ObservableSet, Output
+from .sections import BoundaryCondition, ObservableSet, Output, check_boundary_data
 from .solver import Solver
 from .time import Time
 
@@ -81,6 +81,7 @@ class Scene(_Section):
                 if bc.micro_rotation is not None and not self.has_micropolar:
                     raise ValueError(f"boundaries.{name}.micro_rotation: only with micropolar terms "
                                      "(micropolar.mu_r or lambda1 > 0)")
+            check_boundary_data(self)
         if geo.INFLOW and self.inflow is None:
             raise ValueError(f"inflow: missing section (required for geometry {geo.name})")
         if self.benchmark is not None:

@@ -23,20 +23,70 @@ def _expression(value: Any) -> Any:
 Expr = Annotated[Any, BeforeValidator(_expression)]
 
 
+MICRO_CONDITIONS = ("zero", "half_curl", "free")
+
+
+def _scalar_or_list(value: Any, scalar: bool, what: str) -> Any:
+    """A before-check of ``value``: one expression (parsed here, so that its error names the key itself) when
+    ``scalar``, else a list (its components are parsed by the type, each error naming its index)."""
+    if scalar:
+        if isinstance(value, list):
+            raise ValueError(f"must be one expression, {what} (got a list of {len(value)})")
+        return _expression(value)
+    if value is not None and not isinstance(value, list):
+        raise ValueError(f"must be a list of expressions, {what} (got {value!r})")
+    return value
+
+
+class MicroRotationValue(_Section):
+    """``micro_rotation: {value: EXPR}``: ω = EXPR on the boundary (Dirichlet); in 3D three components."""
+
+    value: list[Expr] | Expr
+
+    @field_validator("value", mode="before")
+    @classmethod
+    def _shape(cls, value: Any) -> Any:
+        return value if isinstance(value, list) else _expression(value)
+
+    def expressions(self) -> list:
+        """The parsed components of ``value`` (one in 2D)."""
+        return [parse_expression(v) for v in (self.value if isinstance(self.value, list) else [self.value])]
+
+
 class BoundaryCondition(_Section):
     """The condition on one named facet group of a file scene (``boundaries: {NAME: {...}}``).
 
     ``type``: ``no_slip`` (u = 0), ``velocity`` (u = ``value``), ``do_nothing`` (the natural condition of
-    the viscous form: μ ∂u/∂n − p n = 0 for ``laplacian``), ``traction`` (that natural condition = ``value``),
-    ``slip`` (u·n = 0 on a straight boundary along x or y). ``value``: [EXPR, EXPR], each a number or a
-    string in x, y, z, t (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp.
-    ``micro_rotation`` (with micropolar terms): ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly) or
-    ``free`` (natural); default: ``micropolar.wall_condition`` on no-slip boundaries, ``free`` elsewhere.
+    the viscous form: (μ + μ_r) ∂u/∂n − p n = 0 for ``laplacian``), ``traction`` (that natural condition =
+    ``value``), ``pressure`` (the normal traction −p̂ n with p̂ = ``value``, one expression: the natural
+    condition = −p̂ n; with ``laplacian`` (μ + μ_r) ∂u/∂n − p n = −p̂ n, so p = p̂ where the flow is developed
+    (∂u/∂n = 0), the do-nothing sense: a pressure drop between an inlet and an outlet drives Poiseuille flow;
+    with ``symmetric`` the tangential stress (μ + μ_r)(∇u + ∇uᵀ)n·t is set to 0 as well, which a developed
+    profile does not satisfy), ``slip`` (u·n = 0 on a straight boundary along x or y). ``value``: [EXPR, EXPR]
+    (velocity, traction; 3 in 3D) or EXPR (pressure), each a number or a string in x, y, z, t
+    (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp. A value must be finite on
+    the boundary (exit 2 at setup, exit 3 if it turns non-finite during the run); one that uses t needs a
+    time in a steady scene (``time.steady_at``).
+    ``micro_rotation`` (with micropolar terms): ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly),
+    ``free`` (natural: λ₁ ∂ω/∂n = 0) or ``{value: EXPR}`` (ω = EXPR; in 3D [EXPR, EXPR, EXPR]). Default:
+    ``micropolar.wall_condition`` on no_slip boundaries, ``free`` on do_nothing, traction, pressure and slip
+    ones; a velocity boundary of a micropolar scene must name it (a moving wall and an inflow want different
+    ones). run.log lists the condition each boundary got.
     """
 
-    type: Literal["no_slip", "velocity", "do_nothing", "traction", "slip"]
-    value: list[Expr] | None = Field(default=None, validate_default=True)
-    micro_rotation: Literal["zero", "half_curl", "free"] | None = None
+    type: Literal["no_slip", "velocity", "do_nothing", "traction", "pressure", "slip"]
+    value: list[Expr] | Expr | None = Field(default=None, validate_default=True)
+    micro_rotation: MicroRotationValue | Literal["zero", "half_curl", "free"] | None = None
+
+    @field_validator("value", mode="before")
+    @classmethod
+    def _value_shape(cls, value: Any, info: ValidationInfo) -> Any:
+        kind = info.data.get("type")
+        if kind == "pressure" and value is not None:
+            return _scalar_or_list(value, True, "the pressure p")
+        if kind in ("velocity", "traction"):
+            return _scalar_or_list(value, False, "[EXPR, EXPR]")
+        return value
 
     @field_validator("value")
     @classmethod
@@ -47,19 +97,45 @@ class BoundaryCondition(_Section):
                 raise ValueError(f"missing key (type {kind} needs value: [EXPR, EXPR])")
             if len(value) not in (2, 3):
                 raise ValueError(f"must have 2 components, x and y (3 in 3D; got {len(value)})")
+        elif kind == "pressure":
+            if value is None:
+                raise ValueError("missing key (type pressure needs value: EXPR, the pressure)")
         elif value is not None and kind is not None:
-            raise ValueError(f"not used for type {kind} (only velocity and traction take a value)")
+            raise ValueError(f"not used for type {kind} (only velocity, traction and pressure take a value)")
+        return value
+
+    @field_validator("micro_rotation", mode="before")
+    @classmethod
+    def _micro_kind(cls, value: Any) -> Any:
+        if value is not None and not isinstance(value, dict) and value not in MICRO_CONDITIONS:
+            raise ValueError(f"must be zero, half_curl, free or {{value: EXPR}} (got {value!r})")
         return value
 
     def micro(self, wall_condition: str) -> str:
-        """The micro-rotation condition here: given, or the default for this type."""
+        """The micro-rotation condition here: given (``value`` for {value: EXPR}), or the default for this
+        type."""
+        if isinstance(self.micro_rotation, MicroRotationValue):
+            return "value"
         if self.micro_rotation is not None:
             return self.micro_rotation
         return wall_condition if self.type == "no_slip" else "free"
 
     def expressions(self) -> list:
-        """The parsed components of ``value``."""
-        return [parse_expression(v) for v in self.value or ()]
+        """The parsed components of ``value`` (one for pressure)."""
+        value = self.value if isinstance(self.value, list) or self.value is None else [self.value]
+        return [parse_expression(v) for v in value or ()]
+
+    def all_expressions(self) -> dict:
+        """Every expression of this condition by its key below ``boundaries.NAME`` (``value[0]``, ``value``,
+        ``micro_rotation.value[2]``, ...)."""
+        out = {}
+        for prefix, value in (("value", self.value), ("micro_rotation.value",
+                                                      getattr(self.micro_rotation, "value", None))):
+            if isinstance(value, list):
+                out.update({f"{prefix}[{i}]": parse_expression(v) for i, v in enumerate(value)})
+            elif value is not None:
+                out[prefix] = parse_expression(value)
+        return out
 
 
 Point = Annotated[list[float], Field(min_length=2, max_length=2)]
@@ -89,3 +165,33 @@ class Output(_Section):
     progress: bool = True
     # steps between checkpoints; 0: only on SIGTERM/SIGINT
     checkpoint_every: int = Field(default=1000, ge=0, le=MAX_COUNT)
+
+
+def check_boundary_data(scene) -> None:
+    """The checks of a ``boundaries`` section across sections (keys in full): ω's components for the mesh's
+    dimension, ω named on the velocity boundaries of a micropolar scene, t only with a time (steady scenes:
+    ``time.steady_at``), and the data that do not depend on x, y, z finite at the start time."""
+    import numpy as np
+
+    steady = scene.time.scheme == "steady"
+    start = (scene.time.steady_at or 0.0) if steady else 0.0
+    dim = scene.geometry.DIM
+    for name, bc in scene.boundaries.items():
+        key = f"boundaries.{name}"
+        micro = bc.micro_rotation
+        if isinstance(micro, MicroRotationValue) and scene.has_micropolar:
+            n = len(micro.value) if isinstance(micro.value, list) else None
+            if (dim == 2 and n is not None) or (dim == 3 and n != 3):
+                want = "one expression (ω is a scalar in 2D)" if dim == 2 else "3 components [EXPR, EXPR, EXPR]"
+                raise ValueError(f"{key}.micro_rotation.value: must be {want} for a {dim}D mesh"
+                                 f"{'' if n is None else f' (got {n})'}")
+        if bc.type == "velocity" and micro is None and scene.has_micropolar:
+            raise ValueError(f"{key}.micro_rotation: required on a velocity boundary of a micropolar scene "
+                             "(zero, half_curl, free or {value: EXPR})")
+        for sub, expression in bc.all_expressions().items():
+            if steady and expression.time_dependent and scene.time.steady_at is None:
+                raise ValueError(f"{key}.{sub}: uses t in a steady scene: give the time as time.steady_at "
+                                 f"(got {expression.text!r})")
+            if not expression.symbols & {"x", "y", "z"} and not expression.finite_at(np.zeros((3, 1)), start):
+                raise ValueError(f"{key}.{sub}: {expression.text!r} is not finite at t = {start!r} "
+                                 "(an overflow or a division by zero)")

@@ -77,6 +77,10 @@ class Steady(_Section):
     """``scheme: steady``: the steady equations (no time derivative) by Newton's method (scheme/steady.py),
     one "step" of length 1 at t = 1 (``dt`` and ``t_end`` are not keys: both read 1).
 
+    ``steady_at``: the time t at which the boundary data and sources are evaluated (and the step ends). A
+    ``boundaries`` section whose data use t needs it; without it a built-in scene's inflow is taken after its
+    ramp (t = max(1, ramp times)).
+
     ``newton_max_iterations``, ``newton_rtol``: the iteration limit and relative residual tolerance.
     ``newton_continuation``: fractions of the convection (of the load for a solid) tried one after the
     other when Newton from the Stokes/unloaded state does not converge."""
@@ -85,6 +89,7 @@ class Steady(_Section):
     newton_max_iterations: int = Field(default=25, ge=1, le=1000)
     newton_rtol: float = Field(default=1e-10, gt=0, lt=1)
     newton_continuation: list[Annotated[float, Field(gt=0, le=1)]] = Field(default_factory=lambda: [0.25, 0.5, 1.0])
+    steady_at: float | None = Field(default=None, ge=0, allow_inf_nan=False)
 
     @property
     def dt(self) -> float:

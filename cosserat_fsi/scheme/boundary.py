@@ -5,21 +5,26 @@ One path for every scene: the conditions by facet name of ``scene.conditions()``
 and a rigid flag; the inflow profile × ramp at the inlet, with the optional antisymmetric start-up tilt; the
 moving lid of the cavity). With an exact solution: its values on every tagged boundary but the outlet.
 Where ``micropolar.wall_condition: half_curl`` the wall value of ω is weak (Problem.residual) and has no
-Dirichlet condition here.
+Dirichlet condition here; ``micro_rotation: {value: EXPR}`` is a Dirichlet condition on ω. Every expression of
+a boundaries section (values, pressures, tractions, ω values) is evaluated at the boundary's dof points: not
+finite at the start is an InputError (exit 2), at a later update a DivergenceError (exit 3).
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 import numpy as np
 from mpi4py import MPI
 
 from .. import compat
-from ..errors import InputError
+from ..errors import DivergenceError, InputError
 from .problem import Problem
 
 import dolfinx
+
+log = logging.getLogger("cosserat_fsi")
 
 
 class BoundaryConditions:
@@ -33,6 +38,7 @@ class BoundaryConditions:
         self.space = space if space is not None else problem.space
         self.bcs: list = []
         self._updates: list[Callable[[float], None]] = []
+        self._checks: list[tuple] = []  # (key, expression, points) of a boundaries section's data
         weak = problem.half_curl_walls()
         micro = problem.model.micro_rotation
         if exact is not None:
@@ -41,6 +47,7 @@ class BoundaryConditions:
             if micro:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)
             return
+        self._check_data(problem.conditions())
         self._named(problem.conditions(), micro)
         solid_pressure = problem.solid_pressure_condition(self.space)  # a compressible solid: p = 0 inside
         if solid_pressure is not None:
@@ -60,6 +67,43 @@ class BoundaryConditions:
             zero = self.problem.micro_rotation_boundaries("zero")
             if zero:
                 self._add("micro_rotation", zero)
+            wall = self.problem.scene.micropolar.wall_condition
+            for name, bc in boundaries.items():
+                if bc.micro(wall) == "value":
+                    self._add("micro_rotation", (name,), expressions=bc.micro_rotation.expressions())
+                given = "given" if bc.micro_rotation is not None else "default"
+                log.info("boundary %s (%s): micro-rotation %s (%s)", name, bc.type,
+                         bc.micro(wall) if bc.micro(wall) != "value" else
+                         "= " + ", ".join(e.text for e in bc.micro_rotation.expressions()), given)
+
+    def _check_data(self, boundaries) -> None:
+        """The expressions of ``boundaries`` finite at the start (exit 2 if not); the time-dependent ones
+        are checked again at every :meth:`update` (exit 3)."""
+        from .steady import steady_time
+
+        scene = self.problem.scene
+        start = steady_time(scene) if scene.time.scheme == "steady" else 0.0
+        sp, fdim = self.space, self.problem.mesh.topology.dim - 1
+        V0, _ = compat.collapse(sp.sub("velocity").sub(0))
+        coordinates = V0.tabulate_dof_coordinates()
+        for name, bc in boundaries.items():
+            data = bc.all_expressions()
+            if not data:
+                continue
+            dofs = dolfinx.fem.locate_dofs_topological(V0, fdim, self.problem.facets(name))
+            points = coordinates[dofs].T
+            for sub, expression in data.items():
+                self._checks.append((f"boundaries.{name}.{sub}", expression, points))
+        self._check(start, InputError, everything=True)
+
+    def _check(self, t: float, error, everything: bool = False) -> None:
+        for key, expression, points in self._checks:
+            if not (everything or expression.time_dependent):
+                continue
+            bad = not expression.finite_at(points, t) if points.shape[1] else False
+            if self.comm.allreduce(bad, op=MPI.LOR):
+                raise error(f"{key}: {expression.text!r} is not finite on the boundary at t = {t!r} "
+                            "(an overflow or a division by zero)")
 
     def _slip(self, name: str) -> None:
         """u·n = 0 on a straight boundary along x or y: the normal component is zero."""
@@ -83,13 +127,14 @@ class BoundaryConditions:
         self.bcs.append(dolfinx.fem.dirichletbc(dolfinx.fem.Function(Vi), dofs, sp.sub("velocity").sub(flat[0])))
 
     def update(self, t: float) -> None:
-        """Set the time-dependent boundary values to time ``t``."""
+        """Set the time-dependent boundary values to time ``t`` (DivergenceError if they are not finite)."""
+        self._check(t, DivergenceError)
         for update in self._updates:
             update(t)
 
     def _add(self, space_name, facet_names, exact=None, expressions=None):
         """One condition on the sub-space ``space_name``: the ``exact(x, t)`` data, a boundaries section's
-        ``expressions`` (its value: [EXPR, EXPR] in x, y, z, t), or zero."""
+        ``expressions`` (its value: [EXPR, EXPR] in x, y, z, t; one for ω in 2D), or zero."""
         sp = self.space
         Vs = sp.space(space_name)
         g = dolfinx.fem.Function(Vs)
@@ -98,7 +143,8 @@ class BoundaryConditions:
         if expressions is not None:  # a boundaries section's value: [EXPR, EXPR] in x, y, z, t
 
             def fill(t, g=g, expressions=expressions):
-                g.interpolate(lambda x: np.vstack([e.evaluate(x, t) for e in expressions]))
+                g.interpolate(lambda x: np.vstack([e.evaluate(x, t) for e in expressions])
+                              if len(expressions) > 1 else expressions[0].evaluate(x, t))
 
             fill(0.0)
             if any(e.time_dependent for e in expressions):

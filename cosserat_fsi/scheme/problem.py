@@ -219,16 +219,19 @@ class Problem:
         return self.micro_rotation_boundaries("half_curl")
 
     def traction(self, v) -> ufl.Form | None:
-        """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t), or
+        """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t) and
+        +∫ p̂ n·v ds over those of type pressure (the natural condition σn = −p̂ n, p̂ their ``value``), or
         None."""
-        named = [(name, bc) for name, bc in self.conditions().items() if bc.type == "traction"]
+        named = [(name, bc) for name, bc in self.conditions().items() if bc.type in ("traction", "pressure")]
         if not named:
             return None
         ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
         x = ufl.SpatialCoordinate(self.mesh)
+        n = ufl.FacetNormal(self.mesh)
         form = None
         for name, bc in named:
-            g = ufl.as_vector([e.to_ufl(x, self.time) for e in bc.expressions()])
+            values = [e.to_ufl(x, self.time) for e in bc.expressions()]
+            g = -values[0] * n if bc.type == "pressure" else ufl.as_vector(values)
             term = -ufl.inner(g, v) * ds(self.facet_ids[name])
             form = term if form is None else form + term
         return form

@@ -32,7 +32,10 @@ log = logging.getLogger("cosserat_fsi")
 
 
 def steady_time(scene) -> float:
-    """The time at which the boundary data and sources are evaluated: after every ramp."""
+    """The time at which the boundary data and sources are evaluated: ``time.steady_at`` if given, else after
+    every ramp."""
+    if getattr(scene.time, "steady_at", None) is not None:
+        return scene.time.steady_at
     ramps = [scene.time.t_end]
     if scene.inflow is not None:
         ramps.append(scene.inflow.ramp_time)
