@@ -75,7 +75,7 @@ class Scene(_Section):
                 raise ValueError("inflow: not used with a boundaries section (give the inlet's velocity as "
                                  "boundaries.NAME: {type: velocity, value: [EXPR, EXPR]})")
             for name, bc in self.boundaries.items():
-                if bc.value is not None and len(bc.value) != geo.DIM:
+                if isinstance(bc.value, list) and len(bc.value) != geo.DIM:
                     raise ValueError(f"boundaries.{name}.value: must have {geo.DIM} components for a {geo.DIM}D "
                                      f"mesh (got {len(bc.value)})")
                 if bc.micro_rotation is not None and not self.has_micropolar:
