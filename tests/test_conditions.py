@@ -85,7 +85,7 @@ def test_couette_closed_form_solves_its_equations():
 def test_micropolar_couette_moving_wall(tmp_path):
     """Top wall moving at U = 1 with ω = 0.3 there ({value: EXPR}), bottom at rest with ω = 0; both ends
     natural (pressure 0 at the inlet, do-nothing outlet, ω free): the developed profile is exact there. P2 on
-    level 1 (h = 0.05): u and ω within 1e-4 of the closed form (relative max error)."""
+    level 1 (h = 0.04): u and ω within 1e-4 of the closed form (relative max error)."""
     scene = _scene(tmp_path, "{top: {type: velocity, value: [1, 0], micro_rotation: {value: '0.1 + 0.2'}},"
                              " bottom: {type: no_slip, micro_rotation: zero}, inlet: {type: pressure, value: 0},"
                              " outlet: {type: do_nothing}}")

@@ -12,7 +12,7 @@ from cosserat_fsi.geometry import Geometry
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
 from .physics import Fluid, Inflow, Micropolar, Solid
-from .sections import BoundaryCondition, ObservableSet, Output, check_boundary_data
+from .sections import BoundaryCondition, ObservableSet, Output, check_boundary_data, precheck_micro_values
 from .solver import Solver
 from .time import Time
 
@@ -39,6 +39,12 @@ class Scene(_Section):
         if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}", value):
             raise ValueError(f"must use only letters, digits, '_', '-', '.' (1 to 100 of them; got {_short(value)})")
         return value
+
+    @model_validator(mode="before")
+    @classmethod
+    def _micro_values(cls, data):
+        precheck_micro_values(data)
+        return data
 
     @model_validator(mode="after")
     def _cross_checks(self):

@@ -195,3 +195,26 @@ def check_boundary_data(scene) -> None:
             if not expression.symbols & {"x", "y", "z"} and not expression.finite_at(np.zeros((3, 1)), start):
                 raise ValueError(f"{key}.{sub}: {expression.text!r} is not finite at t = {start!r} "
                                  "(an overflow or a division by zero)")
+
+
+def precheck_micro_values(data: Any) -> None:
+    """``boundaries.NAME.micro_rotation: {value: ...}`` of a raw scene checked before the models, so that an
+    error names its full key (the field is a union of a word and this mapping)."""
+    boundaries = data.get("boundaries") if isinstance(data, dict) else None
+    for name, bc in (boundaries or {}).items() if isinstance(boundaries, dict) else ():
+        micro = bc.get("micro_rotation") if isinstance(bc, dict) else None
+        if not isinstance(micro, dict):
+            continue
+        key = f"boundaries.{name}.micro_rotation"
+        for extra in micro:
+            if extra != "value":
+                raise ValueError(f"{key}.{extra}: unknown key (the mapping form is {{value: EXPR}})")
+        if "value" not in micro:
+            raise ValueError(f"{key}.value: missing key (ω on the boundary: EXPR, in 3D [EXPR, EXPR, EXPR])")
+        value = micro["value"]
+        for sub, text in ([(f"value[{i}]", v) for i, v in enumerate(value)] if isinstance(value, list)
+                          else [("value", value)]):
+            try:
+                parse_expression(text)
+            except ExpressionError as exc:
+                raise ValueError(f"{key}.{sub}: {exc}") from None
