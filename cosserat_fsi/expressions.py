@@ -168,7 +168,8 @@ def _walk(node: ast.AST, text: str, depth: int) -> tuple:
                                    *(_walk(a, text, depth + 1) for a in node.args[1:])))
         return ("call", name, tuple(_walk(a, text, depth + 1) for a in node.args))
     what = {ast.Attribute: "an attribute", ast.Subscript: "a subscript", ast.Lambda: "a lambda",
-            ast.Compare: "a comparison outside where(cond, a, b)", ast.BoolOp: "a boolean operator", ast.IfExp: "a conditional",
+            ast.Compare: "a comparison outside where(cond, a, b)", ast.BoolOp: "a boolean operator",
+            ast.IfExp: "a conditional",
             ast.Constant: "a constant that is not a number"}.get(type(node), f"a {type(node).__name__}")
     raise ExpressionError(f"{what} is not allowed in {text!r} (numbers, x, y, z, t, pi, + - * / **, "
                           "parentheses and the functions " + ", ".join(FUNCTIONS) + ")")

@@ -148,10 +148,10 @@ def test_grammar_in_ufl_matches_numpy():
     text = "atan2(y, x + 1) + where(x < 0.5, sinh(y), cosh(y)) + asin(x/2) + acos(y/2) + atan(x)"
     ours = dolfinx.fem.assemble_scalar(compat.form(parse(text).to_ufl(X, t) * ufl.dx))
     ours = MPI.COMM_WORLD.allreduce(ours, op=MPI.SUM)
-    g = np.linspace(0, 1, 2001)
+    g = (np.arange(2000) + 0.5) / 2000  # midpoints
     gx, gy = np.meshgrid(g, g)
-    f = parse(text).evaluate(np.vstack([gx.ravel(), gy.ravel(), 0 * gx.ravel()]), 0.5).reshape(gx.shape)
-    assert ours == pytest.approx(np.trapz(np.trapz(f, g, axis=1), g), abs=2e-3)  # the jump at x = 0.5
+    f = parse(text).evaluate(np.vstack([gx.ravel(), gy.ravel(), 0 * gx.ravel()]), 0.5)
+    assert ours == pytest.approx(f.mean(), abs=2e-3)  # the jump at x = 0.5 cuts cells of the 16 x 16 mesh
 
 
 def test_non_finite_data_on_the_mesh_is_refused_at_setup(tmp_path):

@@ -71,7 +71,8 @@ class BoundaryConditions:
             for name, bc in boundaries.items():
                 if bc.micro(wall) == "value":
                     self._add("micro_rotation", (name,), expressions=bc.micro_rotation.expressions())
-                given = "given" if bc.micro_rotation is not None else "default"
+                given = ("given" if bc.micro_rotation is not None else
+                         "micropolar.wall_condition" if bc.type == "no_slip" else "default off no-slip walls")
                 log.info("boundary %s (%s): micro-rotation %s (%s)", name, bc.type,
                          bc.micro(wall) if bc.micro(wall) != "value" else
                          "= " + ", ".join(e.text for e in bc.micro_rotation.expressions()), given)

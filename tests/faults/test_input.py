@@ -254,7 +254,7 @@ FILE_SCENES = {  # (files {name: content}, geometry section, extra YAML, expecte
                            "boundaries.walls.value: not used for type no_slip"),
     "bnd_bad_type": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
                      "boundaries: {walls: {type: wall}, outlet: {type: do_nothing}}\n",
-                     "boundaries.walls.type: must be one of no_slip, velocity, do_nothing, traction, slip"),
+                     "boundaries.walls.type: must be one of no_slip, velocity, do_nothing, traction, pressure, slip"),
     "bnd_micro_without_micropolar": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
                                      "boundaries: {walls: {type: no_slip, micro_rotation: zero}, "
                                      "outlet: {type: do_nothing}}\n",
