@@ -102,9 +102,11 @@ class BoundaryConditions:
             if not (everything or expression.time_dependent):
                 continue
             bad = not expression.finite_at(points, t) if points.shape[1] else False
-            if self.comm.allreduce(bad, op=MPI.LOR):
-                raise error(f"{key}: {expression.text!r} is not finite on the boundary at t = {t!r} "
+            if self.comm.allreduce(bad, op=MPI.LOR):  # every rank raises it: shared, said once
+                exc = error(f"{key}: {expression.text!r} is not finite on the boundary at t = {t!r} "
                             "(an overflow or a division by zero)")
+                exc.shared = True
+                raise exc
 
     def _slip(self, name: str) -> None:
         """u·n = 0 on a straight boundary along x or y: the normal component is zero."""
