@@ -69,6 +69,7 @@ class BoundaryConditions:
         mesh, facets = self.problem.mesh, self.problem.facets(name)
         tdim = mesh.topology.dim
         mesh.topology.create_connectivity(tdim - 1, tdim)
+        facets = facets[facets < mesh.topology.index_map(tdim - 1).size_local]  # owned (exterior: the owner's)
         inside = ~np.isin(facets, dolfinx.mesh.exterior_facet_indices(mesh.topology))
         solid = False
         if self.problem.model.solid:
