@@ -46,11 +46,9 @@ def _run(tmp_path, geo: str, body: str, steps: int = 1, level: int = 0):
     from cosserat_fsi.config import load_scene
     from cosserat_fsi.simulation import Simulation
 
-    comm = MPI.COMM_WORLD
-    if comm.rank == 0:
-        (tmp_path / "m.geo").write_text(geo)
-        (tmp_path / "scene.yaml").write_text(f"geometry: {{name: file, path: m.geo, level: {level}}}\n{body}")
-    comm.barrier()
+    comm = MPI.COMM_WORLD  # every rank its own tmp_path (under mpirun each rank runs pytest)
+    (tmp_path / "m.geo").write_text(geo)
+    (tmp_path / "scene.yaml").write_text(f"geometry: {{name: file, path: m.geo, level: {level}}}\n{body}")
     scene = load_scene(tmp_path / "scene.yaml")
     mesh, ct, ft, _ = load_mesh(scene, comm)
     sim = Simulation(scene, mesh, ct, ft, comm)
@@ -76,6 +74,7 @@ PLUG = {"laplacian": "fluid: {rho: 1.0, mu: 1.0}\n",
         "micropolar": "fluid: {rho: 1.0, mu: 1.0}\nmicropolar: {mu_r: 0.5, lambda1: 0.1}\n"}
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize("fluid_section", PLUG.values(), ids=PLUG)
 def test_plug_flow_in_an_oblique_channel(tmp_path, fluid_section):
     """Slip on both walls of a channel at 30°, u = t̂ at inlet and outlet, a body force n̂ = (−sin 30°, cos 30°)
@@ -122,6 +121,7 @@ def test_half_poiseuille_in_an_oblique_channel_symmetric(tmp_path):
     assert _max_error(sim, _half_poiseuille) < 1e-9
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize("scheme", ["characteristics1", "characteristics2", "ale_bdf2", "generalized_alpha"])
 def test_accelerating_plug_in_every_time_scheme(tmp_path, scheme):
     """u = t t̂ at the inlet, slip walls, from rest: the plug u = t t̂ with p = ρ(2 − s) (s along t̂) solves
@@ -134,6 +134,7 @@ def test_accelerating_plug_in_every_time_scheme(tmp_path, scheme):
     assert _max_error(sim, lambda p: (0.2 * C, 0.2 * S)) < 1e-9
 
 
+@pytest.mark.mpi
 def test_couette_with_a_slip_outer_circle_converges(tmp_path):
     """Inner cylinder r = 1/2 turning at Ω = 1 (u = Ω × x), slip on the circle r = 1, laplacian form (its
     tangential traction μ ∂u_θ/∂r = 0): u_θ = A r + B/r with A = B = 0.2 (A − B = 0 at r = 1, A/2 + 2B = 1/2).
@@ -185,6 +186,7 @@ def _oblique_box(comm, n=(4, 2, 2)):
     return mesh, tags, R[:, 0], R[:, 1]
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize("viscous_form", ["laplacian", "symmetric"])
 def test_half_poiseuille_in_an_oblique_box_3d(viscous_form):
     """Stokes in a box turned about two axes: no-slip bottom, slip (Nitsche) on the top and both sides, the
