@@ -28,9 +28,10 @@ class BoundaryCondition(_Section):
 
     ``type``: ``no_slip`` (u = 0), ``velocity`` (u = ``value``), ``do_nothing`` (the natural condition of
     the viscous form: μ ∂u/∂n − p n = 0 for ``laplacian``), ``traction`` (that natural condition = ``value``),
-    ``slip`` (u·n = 0 and no tangential traction, on any boundary: weakly by Nitsche's method; on a curved
-    one u·n = 0 holds on the mesh's polygon, which limits the error to O(h); ω keeps ``micro_rotation``;
-    not with the steady solid solve, nor on a side of solid cells). ``value``: [EXPR, EXPR], each a number or a
+    ``slip`` (u·n = 0 and no tangential traction of the viscous form, on any boundary, straight, oblique or
+    curved: weakly by Nitsche's method, the polygon's normals averaged at its vertices; ω keeps its
+    ``micro_rotation``; not with the steady solid solve, nor on a side of solid cells).
+    ``value``: [EXPR, EXPR], each a number or a
     string in x, y, z, t (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp.
     ``micro_rotation`` (with micropolar terms): ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly) or
     ``free`` (natural); default: ``micropolar.wall_condition`` on no-slip boundaries, ``free`` elsewhere.

@@ -17,6 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..physics import fluid, materials, solid
 from ..tags import FACET_TAGS, FLUID, SOLID
+from .slip_normal import smoothed_normal
 from .spaces import MixedSpace, mixed_space
 
 import dolfinx
@@ -244,9 +245,9 @@ class Problem:
         if not names:
             return None
         viscosity = self.mu + self.mu_r if self.model.micro_rotation else self.mu
-        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
-        return fluid.nitsche_slip(u, p, v, q, viscosity=viscosity, viscous_form=self.viscous_form,
-                                  ds=ds(tuple(self.facet_tag_values(*names))), mesh=self.mesh)
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)(tuple(self.facet_tag_values(*names)))
+        return fluid.nitsche_slip(u, p, v, q, viscosity=viscosity, viscous_form=self.viscous_form, ds=ds,
+                                  mesh=self.mesh, normal=smoothed_normal(self.mesh, ds))
 
     # ------------------------------------------------------------------------------------ forms
     def split(self, w) -> tuple:
