@@ -129,6 +129,20 @@ def share(comm, local: BaseException | None) -> None:
     _raise_first(comm, comm.allgather(_wire(local)), local)
 
 
+def raise_if_any(comm, failed: bool, exc: BaseException) -> None:
+    """Collective: if ``failed`` on any rank, every rank raises ``exc`` (the same on every rank), marked
+    shared so that it is said once."""
+    if comm.allreduce(bool(failed), op=_lor()):
+        exc.shared = True
+        raise exc
+
+
+def _lor():
+    from mpi4py import MPI
+
+    return MPI.LOR
+
+
 def is_shared(exc: BaseException) -> bool:
     """True if every rank raised ``exc`` (through this module)."""
     return bool(getattr(exc, "shared", False))
@@ -175,4 +189,4 @@ def failpoint(name: str) -> None:
     raise RuntimeError(f"injected fault at {name}")
 
 
-__all__ = ["agree", "on_root", "share", "is_shared", "failpoint", "exit_code_of"]
+__all__ = ["agree", "on_root", "share", "raise_if_any", "is_shared", "failpoint", "exit_code_of"]

@@ -62,7 +62,10 @@ class BoundaryCondition(_Section):
     condition = −p̂ n; with ``laplacian`` (μ + μ_r) ∂u/∂n − p n = −p̂ n, so p = p̂ where the flow is developed
     (∂u/∂n = 0), the do-nothing sense: a pressure drop between an inlet and an outlet drives Poiseuille flow;
     with ``symmetric`` the tangential stress (μ + μ_r)(∇u + ∇uᵀ)n·t is set to 0 as well, which a developed
-    profile does not satisfy), ``slip`` (u·n = 0 on a straight boundary along x or y). ``value``: [EXPR, EXPR]
+    profile does not satisfy), ``slip`` (u·n = 0 and no tangential traction of the viscous form, on any
+    boundary, straight, oblique or curved: weakly by Nitsche's method, the polygon's normals averaged at its
+    vertices; ω keeps its ``micro_rotation``; not with the steady solid solve, nor on a side of solid cells).
+    ``value``: [EXPR, EXPR]
     (velocity, traction; 3 in 3D) or EXPR (pressure), each a number or a string in x, y, z, t
     (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp. A value must be finite on
     the boundary (exit 2 at setup, exit 3 if it turns non-finite during the run); one that uses t needs a

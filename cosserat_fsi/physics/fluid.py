@@ -33,6 +33,13 @@ def viscous(u, v, viscosity, form: str):
     return viscosity * ufl.inner(ufl.grad(u), ufl.grad(v))
 
 
+def viscous_stress(u, p, viscosity, form: str):
+    """The stress whose natural boundary term the weak form has: ν Du − p I (``symmetric``: ½ ν Du:Dũ =
+    ν Du:∇ũ) or ν ∇u − p I (``laplacian``)."""
+    grad = D(u) if form == "symmetric" else ufl.grad(u)
+    return viscosity * grad - p * ufl.Identity(len(u))
+
+
 def momentum_residual(u, p, v, *, rho, acceleration, mu, body_force, dx, viscous_form: str = "laplacian",
                       dx_inertia=None, omega=None, mu_r=None) -> ufl.Form:
     """Seed eq. (31), fluid part, tested with ũ = ``v``:
@@ -105,3 +112,25 @@ def half_curl_wall(u, omega, tau, *, lambda1, ds, mesh, gamma=10.0) -> ufl.Form:
                 + gamma * lambda1 / h * ufl.inner(jump, tau)) * ds
     return (-lambda1 * ufl.dot(ufl.grad(omega), n) * tau + lambda1 * ufl.dot(ufl.grad(tau), n) * jump
             + gamma * lambda1 / h * jump * tau) * ds
+
+
+def nitsche_slip(u, p, v, q, *, viscosity, viscous_form: str, ds, mesh, gamma: float = 20.0,
+                 normal=None) -> ufl.Form:
+    """Slip (u·n = 0, zero tangential part of σn) on the facets of ``ds``, weakly: the symmetric Nitsche
+    terms (Freund & Stenberg 1995) with σ = :func:`viscous_stress` of the weak form in use,
+
+    −(n·σ(u, p)n, ũ·n)_Γ − (n·σ(ũ, p̃)n, u·n)_Γ + (γ ν/h u·n, ũ·n)_Γ.
+
+    The first term replaces the natural term ∫_Γ σn·ũ by its normal part (the tangential traction is left
+    zero); the second keeps the form symmetric (it adds p̃ u·n to the continuity equation); the third,
+    with h the cell diameter, makes it coercive for γ large enough (20 for P2). Consistent: the exact
+    solution satisfies it term by term, on any boundary, straight or oblique. ``normal``: the n of the
+    projections (u·n, n·σ n_h) where it is not the facet normal n_h (a curved wall's polygon:
+    scheme/slip_normal.py). Linear in (u, p) and in (ũ, p̃): it is its own residual.
+    """
+    n, h = ufl.FacetNormal(mesh), ufl.CellDiameter(mesh)
+    m = n if normal is None else normal
+    normal_stress = ufl.dot(ufl.dot(viscous_stress(u, p, viscosity, viscous_form), n), m)
+    adjoint = ufl.dot(ufl.dot(viscous_stress(v, q, viscosity, viscous_form), n), m)
+    un, vn = ufl.dot(u, m), ufl.dot(v, m)
+    return (-normal_stress * vn - adjoint * un + gamma * viscosity / h * un * vn) * ds

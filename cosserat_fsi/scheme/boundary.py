@@ -7,7 +7,8 @@ moving lid of the cavity). With an exact solution: its values on every tagged bo
 Where ``micropolar.wall_condition: half_curl`` the wall value of ω is weak (Problem.residual) and has no
 Dirichlet condition here; ``micro_rotation: {value: EXPR}`` is a Dirichlet condition on ω. Every expression of
 a boundaries section (values, pressures, tractions, ω values) is evaluated at the boundary's dof points: not
-finite at the start is an InputError (exit 2), at a later update a DivergenceError (exit 3).
+finite at the start is an InputError (exit 2), at a later update a DivergenceError (exit 3). A boundary of
+type ``slip`` (Nitsche, Problem.slip) has no Dirichlet condition either; its facets are only checked here.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import DivergenceError, InputError
+from ..parallel import raise_if_any
+from ..tags import SOLID
 from .problem import Problem
 
 import dolfinx
@@ -55,7 +58,8 @@ class BoundaryConditions:
 
     def _named(self, boundaries, micro: bool) -> None:
         """The conditions of a ``boundaries`` section: no-slip first, then the velocities (they win at shared
-        corners, as the built-in inflow does), slip; ω = 0 where the micro-rotation condition is zero."""
+        corners, as the built-in inflow does); slip is checked (weak: Problem.slip); ω = 0 where the
+        micro-rotation condition is zero."""
         self._add("velocity", self.problem.no_slip_boundaries())
         for name, bc in boundaries.items():
             if bc.type == "velocity":
@@ -102,32 +106,27 @@ class BoundaryConditions:
             if not (everything or expression.time_dependent):
                 continue
             bad = not expression.finite_at(points, t) if points.shape[1] else False
-            if self.comm.allreduce(bad, op=MPI.LOR):  # every rank raises it: shared, said once
-                exc = error(f"{key}: {expression.text!r} is not finite on the boundary at t = {t!r} "
-                            "(an overflow or a division by zero)")
-                exc.shared = True
-                raise exc
+            raise_if_any(self.comm, bad, error(f"{key}: {expression.text!r} is not finite on the boundary at "
+                                               f"t = {t!r} (an overflow or a division by zero)"))
 
     def _slip(self, name: str) -> None:
-        """u·n = 0 on a straight boundary along x or y: the normal component is zero."""
-        mesh = self.problem.mesh
-        facets = self.problem.facets(name)
-        fdim = mesh.topology.dim - 1
-        sp = self.space
-        V0, _ = compat.collapse(sp.sub("velocity").sub(0))
-        local = dolfinx.fem.locate_dofs_topological((sp.sub("velocity").sub(0), V0), fdim, facets)[1]
-        x = V0.tabulate_dof_coordinates()[local][:, :2]
-        lo = self.comm.allreduce(x.min(axis=0) if len(x) else np.full(2, np.inf), op=MPI.MIN)
-        hi = self.comm.allreduce(x.max(axis=0) if len(x) else np.full(2, -np.inf), op=MPI.MAX)
-        extent = hi - lo
-        size = max(float(np.max(extent)), 1e-300)
-        flat = [i for i in range(2) if extent[i] <= 1e-10 * size]
-        if len(flat) != 1:
-            raise InputError(f"boundaries.{name}: type slip needs a straight boundary along x or y "
-                             "(u.n = 0 is imposed on one velocity component)")
-        Vi, _ = compat.collapse(sp.sub("velocity").sub(flat[0]))
-        dofs = dolfinx.fem.locate_dofs_topological((sp.sub("velocity").sub(flat[0]), Vi), fdim, facets)
-        self.bcs.append(dolfinx.fem.dirichletbc(dolfinx.fem.Function(Vi), dofs, sp.sub("velocity").sub(flat[0])))
+        """Slip is weak (Problem.slip, Nitsche): no Dirichlet condition; its facets must be on the boundary of
+        the mesh and of fluid cells (the terms carry the fluid's stress)."""
+        mesh, facets = self.problem.mesh, self.problem.facets(name)
+        tdim = mesh.topology.dim
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        facets = facets[facets < mesh.topology.index_map(tdim - 1).size_local]  # owned (exterior: the owner's)
+        inside = ~np.isin(facets, dolfinx.mesh.exterior_facet_indices(mesh.topology))
+        solid = False
+        if self.problem.model.solid:
+            ct, f2c = self.problem.cell_tags, mesh.topology.connectivity(tdim - 1, tdim)
+            solid_cells = ct.indices[ct.values == SOLID]
+            solid = any(np.isin(f2c.links(f), solid_cells).any() for f in facets[~inside])
+        raise_if_any(self.comm, inside.any(), InputError(
+            f"boundaries.{name}: type slip needs facets on the boundary of the mesh (some are inside it)"))
+        raise_if_any(self.comm, solid, InputError(
+            f"boundaries.{name}: type slip on a side of solid cells is not supported (the slip condition carries "
+            "the fluid's stress); use no_slip there"))
 
     def update(self, t: float) -> None:
         """Set the time-dependent boundary values to time ``t`` (DivergenceError if they are not finite)."""

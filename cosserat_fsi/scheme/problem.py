@@ -17,6 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..physics import fluid, materials, solid
 from ..tags import FACET_TAGS, FLUID, SOLID
+from .slip_normal import smoothed_normal
 from .spaces import MixedSpace, mixed_space
 
 import dolfinx
@@ -236,6 +237,21 @@ class Problem:
             form = term if form is None else form + term
         return form
 
+    def slip_boundaries(self) -> tuple:
+        """The names of type slip."""
+        return tuple(name for name, bc in self.conditions().items() if bc.type == "slip")
+
+    def slip(self, u, p, v, q) -> ufl.Form | None:
+        """The Nitsche terms of u·n = 0 on the boundaries of type slip (fluid.nitsche_slip; the viscosity of
+        the viscous form, μ + μ_r with micro-rotation), or None."""
+        names = self.slip_boundaries()
+        if not names:
+            return None
+        viscosity = self.mu + self.mu_r if self.model.micro_rotation else self.mu
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)(tuple(self.facet_tag_values(*names)))
+        return fluid.nitsche_slip(u, p, v, q, viscosity=viscosity, viscous_form=self.viscous_form, ds=ds,
+                                  mesh=self.mesh, normal=smoothed_normal(self.mesh, ds))
+
     # ------------------------------------------------------------------------------------ forms
     def split(self, w) -> tuple:
         """(u, p, ω or None) of a mixed Function, TrialFunction or TestFunction (or their ``ufl.split``)."""
@@ -269,6 +285,9 @@ class Problem:
         traction = self.traction(v)
         if traction is not None:
             F = F + traction
+        slip = self.slip(u, p, v, q)  # u: the stresses' velocity (``at``)
+        if slip is not None:
+            F = F + slip
         if self.model.micro_rotation:
             F = F + fluid.micro_rotation_residual(u, omega, tau, rho=self.rho, inertia=self.inertia,
                                                   acceleration=micro_acceleration, mu_r=self.mu_r,

@@ -56,6 +56,10 @@ class SteadySolid(SteadyStepper):
         if problem.scene.has_fluid and problem.model.micro_rotation:
             raise InputError("time.scheme: steady is not available for a solid in a micropolar fluid (the "
                              "steady solid solve has no micro-rotation); use a time-stepping scheme")
+        slip = problem.slip_boundaries()
+        if slip:
+            raise InputError(f"boundaries.{slip[0]}: type slip is not available with time.scheme: steady for a "
+                             "scene with a solid (its Lagrangian solve has no slip terms); use a time-stepping scheme")
         log.info("steady: one Newton solve for velocity, displacement and pressure on the reference mesh "
                  "(static solid%s)", ", ALE fluid" if problem.scene.has_fluid else "")
         return cls(problem, state, boundary, motion, timers, comm)

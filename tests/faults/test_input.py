@@ -259,9 +259,6 @@ FILE_SCENES = {  # (files {name: content}, geometry section, extra YAML, expecte
                                      "boundaries: {walls: {type: no_slip, micro_rotation: zero}, "
                                      "outlet: {type: do_nothing}}\n",
                                      "boundaries.walls.micro_rotation: only with micropolar terms"),
-    "bnd_slip_not_straight": ({"m.geo": _SQUARE + _TWO_NAMES}, "{name: file, path: m.geo}",
-                              "boundaries: {walls: {type: slip}, outlet: {type: do_nothing}}\n",
-                              "boundaries.walls: type slip needs a straight boundary along x or y"),
     "obs_unknown_force": ({"m.geo": _SQUARE + _NAMED}, "{name: file, path: m.geo}",
                           "observables: {forces: [cylinder]}\n",
                           "observables.forces[0]: m.geo has no boundary 'cylinder' (it has: walls"),
