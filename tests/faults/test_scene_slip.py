@@ -19,7 +19,7 @@ CASES = {  # (geo, extra YAML, expected message)
     "slip_with_value": (_SQUARE + _TWO_NAMES, _STEPS + "boundaries: {walls: {type: slip, value: [0, 0]}, "
                         "outlet: {type: do_nothing}}\n", "boundaries.walls.value: not used for type slip"),
     "slip_misspelt": (_SQUARE + _TWO_NAMES, _STEPS + "boundaries: {walls: {type: slipp}, outlet: {type: do_nothing}}\n",
-                      "boundaries.walls.type: must be one of no_slip, velocity, do_nothing, traction, slip"),
+                      "boundaries.walls.type: must be one of no_slip, velocity, do_nothing, traction, pressure, slip"),
     "slip_micro_without_micropolar": (_SQUARE + _TWO_NAMES, _STEPS + "boundaries: {walls: {type: slip, "
                                       "micro_rotation: zero}, outlet: {type: do_nothing}}\n",
                                       "boundaries.walls.micro_rotation: only with micropolar terms"),
