@@ -23,6 +23,9 @@ import dolfinx
 import ufl
 from petsc4py import PETSc
 
+WALL_TYPES = ("no_slip", "velocity", "slip")
+"""The boundary types that prescribe the velocity (its normal part at least): the rest fix the pressure."""
+
 
 @dataclass(frozen=True)
 class Model:
@@ -97,6 +100,7 @@ class Problem:
         self._coefficients(exact)
         # DG0: 1 in the fluid cells, 0 in the solid ones (a scene with a solid), else None
         self.fluid_cells = self.cellwise(1.0, 0.0) if self.model.solid else None
+        self._pressure_penalty()
 
     # ------------------------------------------------------------------------------ coefficients
     def constant(self, value) -> dolfinx.fem.Constant:
@@ -147,7 +151,7 @@ class Problem:
             self.rho = self.constant(rho_f)
             self.body_force = dolfinx.fem.Constant(self.mesh, body)
         self.viscous_form = s.fluid.viscous_form if s.fluid is not None else "laplacian"
-        self.penalty = self.constant(s.solver.penalty)
+        self.penalty = self.constant(0.0)  # set by _pressure_penalty once the boundary conditions are known
         self.mu_r = self.lambda1 = self.lambda2 = self.inertia = self.body_couple = None
         if model.micro_rotation:
             m = s.micropolar
@@ -181,6 +185,26 @@ class Problem:
         self.time.value = t
         for update in self._source_updates:
             update(t)
+
+    def pressure_determined(self) -> bool:
+        """Whether the boundary fixes the pressure: some boundary where the velocity is not prescribed
+        (do_nothing, traction, ...); False when no_slip, velocity and slip cover the whole boundary."""
+        return any(bc.type not in WALL_TYPES for bc in self.conditions().values())
+
+    def _pressure_penalty(self) -> None:
+        """ζ of −ζ (p, p̃) (seed eq. 31): 0 when the boundary fixes the pressure; else the dimensionless
+        ``solver.penalty`` over the viscosity μ + μ_r (p/μ ~ div u), in the fluid cells only (the solid's
+        pressure scale is its modulus), to fix the pressure's constant."""
+        s = self.scene
+        if self.pressure_determined() or s.solver.penalty == 0:
+            return
+        viscosity = (s.fluid.mu if s.fluid is not None else 0.0) + (s.micropolar.mu_r if self.model.micro_rotation
+                                                                    else 0.0)
+        if viscosity <= 0:  # a solid-only scene: its shear modulus is the pressure scale
+            viscosity = float(self.mu_s.value) if self.mu_s is not None else 1.0
+        self.penalty.value = s.solver.penalty / viscosity
+        if self.fluid_cells is not None and s.fluid is not None:
+            self.penalty = self.penalty * self.fluid_cells
 
     # -------------------------------------------------------------------------------- boundaries
     def facets(self, *names: str) -> np.ndarray:
