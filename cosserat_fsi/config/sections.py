@@ -80,6 +80,14 @@ class ObservableSet(_Section):
     points: dict[str, Point] = Field(default_factory=dict)
     solid_points: dict[str, Point] = Field(default_factory=dict)
 
+    @field_validator("forces")
+    @classmethod
+    def _forces_once(cls, value: list[str]) -> list[str]:
+        twice = next((name for i, name in enumerate(value) if name in value[:i]), None)
+        if twice is not None:
+            raise ValueError(f'"{twice}" listed twice')
+        return value
+
 
 class Output(_Section):
     """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval."""

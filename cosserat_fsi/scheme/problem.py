@@ -220,11 +220,31 @@ class Problem:
         """The scene's boundary conditions by facet name (``Scene.conditions`` with this mesh's names)."""
         if self.scene.geometry.name != "file" or self.scene.boundaries is not None:
             return self.scene.conditions()
-        x = self.mesh.geometry.x
-        lo = [self.mesh.comm.allreduce(x[:, i].min() if len(x) else np.inf, op=MPI.MIN) for i in (1, 2)]
-        hi = [self.mesh.comm.allreduce(x[:, i].max() if len(x) else -np.inf, op=MPI.MAX) for i in (1, 2)]
-        extent = {"y0": lo[0], "height": hi[0] - lo[0], "z0": lo[1], "width": hi[1] - lo[1]}
-        return self.scene.conditions(self.facet_ids, extent)
+        if getattr(self, "_file_conditions", None) is None:  # collective once (the first call is __init__'s)
+            self._file_conditions = self.scene.conditions(self.facet_ids, self._inlet_extent())
+        return self._file_conditions
+
+    def _inlet_extent(self) -> dict:
+        """{y0, height, z0, width}: the box of the ``inlet`` facets (the default inflow profile spans the
+        inlet), of the whole mesh when there is no inlet."""
+        from .wall_gap import _facet_segments
+
+        comm, x = self.mesh.comm, self.mesh.geometry.x
+        inlet = self.facets("inlet") if "inlet" in self.facet_ids else np.zeros(0, dtype=np.int32)
+        ends = _facet_segments(self.mesh, inlet) if len(inlet) else np.zeros((0, 2, 2))
+        points = ends.reshape(-1, ends.shape[-1])
+        if not comm.allreduce(len(points), op=MPI.SUM):
+            points = x
+        pad = np.zeros((len(points), 3))
+        pad[:, :points.shape[1]] = points
+        lo = [comm.allreduce(pad[:, i].min() if len(pad) else np.inf, op=MPI.MIN) for i in (1, 2)]
+        hi = [comm.allreduce(pad[:, i].max() if len(pad) else -np.inf, op=MPI.MAX) for i in (1, 2)]
+        return {"y0": lo[0], "height": hi[0] - lo[0], "z0": lo[1], "width": hi[1] - lo[1]}
+
+    def wall_boundaries(self) -> tuple:
+        """The names whose velocity is prescribed (no_slip, velocity, slip; the solid keeps its gap from
+        them, scheme/wall_gap.py), whatever they are called."""
+        return tuple(name for name, bc in self.conditions().items() if bc.type in WALL_TYPES)
 
     def no_slip_boundaries(self) -> tuple:
         """The names of type no_slip (``scene.conditions()``: the boundaries section or the preset's)."""
