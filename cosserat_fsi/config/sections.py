@@ -68,8 +68,8 @@ Point = Annotated[list[float], Field(min_length=2, max_length=2)]
 class ObservableSet(_Section):
     """What a file scene reports by name (``observables``), besides energies and flow rate.
 
-    ``forces``: named boundaries whose force on the body (drag, lift: residual and surface forms) is
-    reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
+    ``forces``: named boundaries (each once) whose force on the body (drag, lift: residual and surface
+    forms) is reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
     (columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with micropolar terms also ``omega_NAME``);
     ``solid_points``: material points of the solid, the solid node nearest to the given reference position,
     moving with it (``ux_NAME``, ``uy_NAME``: its displacement).

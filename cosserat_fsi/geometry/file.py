@@ -3,14 +3,17 @@
 ``path`` is relative to the scene file's folder (config.load_scene resolves it) or absolute. A ``.geo`` is
 meshed through gmsh's API with ``Mesh.MeshSizeFactor`` multiplied by 2^-level; a ``.msh`` is read as it is
 (its nodes and elements are kept; gmsh rewrites it as MSH 4.1 ASCII). Both are cached like the built-in
-geometries, keyed by a hash of the file's content and the options (``.geo`` files it ``Include``s are not
-part of the key).
+geometries, keyed by a hash of the content of the file and of the files it ``Include``s or ``Merge``s, and the
+options (not by its path: a copied case folder reuses the mesh; the checkpoint's fingerprint holds the hash).
 
 Regions and boundaries come from the **physical names** of the file: cell groups named ``fluid`` and,
 optionally, ``solid`` (``cells: {fluid: [names], solid: [names]}`` maps other names); facet groups are named
 freely and keep the file's ids. In the cached mesh the cells are renumbered to the project's fluid 1 /
 solid 2 (tags.py) and, when there are solid cells, the fluid–solid interface is found from the cells and
 added as the facet group ``interface`` (a group of that name in the file must be exactly those facets).
+Every boundary facet (an edge of exactly one cell) must be in exactly one facet group; the ones in none become
+the group ``default`` (reserved), whose condition the scene must give (``boundaries.default``). One physical name
+per group, one group per facet (else _Refused, one line).
 The name -> id table of the facets is written next to the mesh (``<mesh>.names.json``; :func:`facet_ids`).
 """
 

@@ -1,6 +1,6 @@
 """A user's mesh whose boundary is not exactly partitioned into named groups, and names given twice: one line
 ``error: <key or file>: ...``, exit 2, nothing written (in-process: the CLI's ``main``). The numbers behind
-these refusals (the ``default`` condition, the inlet's profile, mass, the wall gap): tests/test_scene_topology.py."""
+these refusals (the ``default`` condition, the inlet's profile, the wall gap): tests/test_user_mesh_topology.py."""
 
 from __future__ import annotations
 
