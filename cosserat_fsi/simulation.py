@@ -83,7 +83,8 @@ class Simulation:
         if self.problem.model.moving_mesh:
             settings = self.scene.solid.mesh_motion
             return MeshMotion(self.mesh, self.cell_tags, self.comm, **settings.options(),
-                              wall_facets=self.problem.facets("walls"), mesh_sizes=settings.remesh is not None)
+                              wall_facets=self.problem.facets(*self.problem.wall_boundaries()),
+                              mesh_sizes=settings.remesh is not None)
         return None
 
     # ------------------------------------------------------------------------------- the loop

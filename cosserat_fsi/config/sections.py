@@ -147,8 +147,8 @@ Point = Annotated[list[float], Field(min_length=2, max_length=2)]
 class ObservableSet(_Section):
     """What a file scene reports by name (``observables``), besides energies and flow rate.
 
-    ``forces``: named boundaries whose force on the body (drag, lift: residual and surface forms) is
-    reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
+    ``forces``: named boundaries (each once) whose force on the body (drag, lift: residual and surface
+    forms) is reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
     (columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with micropolar terms also ``omega_NAME``);
     ``solid_points``: material points of the solid, the solid node nearest to the given reference position,
     moving with it (``ux_NAME``, ``uy_NAME``: its displacement).
@@ -158,6 +158,14 @@ class ObservableSet(_Section):
     wetted_solid: bool = False
     points: dict[str, Point] = Field(default_factory=dict)
     solid_points: dict[str, Point] = Field(default_factory=dict)
+
+    @field_validator("forces")
+    @classmethod
+    def _forces_once(cls, value: list[str]) -> list[str]:
+        twice = next((name for i, name in enumerate(value) if name in value[:i]), None)
+        if twice is not None:
+            raise ValueError(f'"{twice}" listed twice')
+        return value
 
 
 class Output(_Section):

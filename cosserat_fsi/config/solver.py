@@ -22,6 +22,12 @@ class Solver(_Section):
     developed flow, GMRES needed 10.7 iterations per step and refactorised on 46 % of the steps anyway, a
     solve phase of 0.129 s per step against 0.062 s for a numeric refactorisation every step
     (docs/performance.md).
+
+    ``penalty``: the dimensionless ζ of the pressure penalty −ζ/(μ + μ_r) (p, p̃) over the fluid cells (seed
+    eq. 31; p/μ ~ div u), used only when the velocity is prescribed on the whole boundary (no_slip, velocity,
+    slip everywhere), where it fixes the pressure's constant (mean zero). A scene with a do_nothing, traction
+    or outflow boundary has no penalty: its pressure is determined and its mass conserved for any μ. 0: no
+    penalty anywhere (a closed box then has a singular pressure).
     """
 
     penalty: float = Field(default=1e-10, ge=0)

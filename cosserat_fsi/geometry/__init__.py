@@ -120,7 +120,8 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     when complete, so the cache never holds a partial mesh (temporaries of dead processes are removed).
     """
     name, level, full = geometry.name, geometry.level, geometry.msh_params()
-    key = json.dumps({"name": name, "level": level, "params": full, "version": BUILDER_VERSION}, sort_keys=True)
+    keyed = {k: v for k, v in full.items() if not (name == "file" and k == "path")}  # a file: by content
+    key = json.dumps({"name": name, "level": level, "params": keyed, "version": BUILDER_VERSION}, sort_keys=True)
     cache = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = cache / f"{name}-L{level}-{hashlib.sha1(key.encode()).hexdigest()[:10]}.msh"
     stamp = path.with_suffix(".sha256")

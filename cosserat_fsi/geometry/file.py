@@ -3,21 +3,26 @@
 ``path`` is relative to the scene file's folder (config.load_scene resolves it) or absolute. A ``.geo`` is
 meshed through gmsh's API with ``Mesh.MeshSizeFactor`` multiplied by 2^-level; a ``.msh`` is read as it is
 (its nodes and elements are kept; gmsh rewrites it as MSH 4.1 ASCII). Both are cached like the built-in
-geometries, keyed by a hash of the file's content and the options (``.geo`` files it ``Include``s are not
-part of the key).
+geometries, keyed by a hash of the content of the file and of the files it ``Include``s or ``Merge``s, and the
+options (not by its path: a copied case folder reuses the mesh; the checkpoint's fingerprint holds the hash).
 
 Regions and boundaries come from the **physical names** of the file: cell groups named ``fluid`` and,
 optionally, ``solid`` (``cells: {fluid: [names], solid: [names]}`` maps other names); facet groups are named
 freely and keep the file's ids. In the cached mesh the cells are renumbered to the project's fluid 1 /
 solid 2 (tags.py) and, when there are solid cells, the fluid–solid interface is found from the cells and
 added as the facet group ``interface`` (a group of that name in the file must be exactly those facets).
+Every boundary facet (an edge of exactly one cell) must be in exactly one facet group; the ones in none become
+the group ``default`` (reserved), whose condition the scene must give (``boundaries.default``). One physical name
+per group, one group per facet (else _Refused, one line).
 The name -> id table of the facets is written next to the mesh (``<mesh>.names.json``; :func:`facet_ids`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import re
 import pathlib
 from types import ModuleType
 from typing import Any, ClassVar, Literal
@@ -86,18 +91,41 @@ class FileGeometry(GeometryBase):
     def solid_cells(self) -> bool:
         return False  # not known before the file is read: the scene's solid section decides (runner checks)
 
+    def content_digest(self) -> str:
+        """sha256 of the file's content and of every file it ``Include``s or ``Merge``s (recursively, by
+        the names written in it): the mesh's identity, whatever folder holds the case."""
+        return content_digest(self.path)
+
     def msh_params(self) -> dict[str, Any]:
-        """The file's content hash and the options: the cache key (the builder reads ``path``)."""
-        import hashlib
-
-        try:
-            digest = hashlib.sha256(pathlib.Path(self.path).read_bytes()).hexdigest()
-        except OSError as exc:
-            from ..errors import InputError
-
-            raise InputError(f"geometry.path: cannot read {self.path} ({exc.strerror or exc})") from None
-        return {"path": os.path.abspath(self.path), "sha256": digest, "fluid": list(self.cells.fluid),
+        """The content hash and the options: the cache key (without ``path``, which the builder reads)."""
+        return {"path": os.path.abspath(self.path), "sha256": self.content_digest(), "fluid": list(self.cells.fluid),
                 "solid": list(self.cells.solid)}
+
+
+_INCLUDE = re.compile(rb'\b(?:Include|Merge)\s*"([^"]+)"')
+
+
+def content_digest(path: str | os.PathLike) -> str:
+    """sha256 over ``path`` and the files it Includes/Merges (a missing one counts by its name)."""
+    from ..errors import InputError
+
+    digest, seen, todo = hashlib.sha256(), set(), [pathlib.Path(path).resolve()]
+    while todo:
+        file = todo.pop(0)
+        if file in seen:
+            continue
+        seen.add(file)
+        try:
+            data = file.read_bytes()
+        except FileNotFoundError:
+            digest.update(b"missing:" + file.name.encode())
+            continue
+        except OSError as exc:
+            raise InputError(f"geometry.path: cannot read {file} ({exc.strerror or exc})") from None
+        digest.update(hashlib.sha256(data).digest())
+        if file.suffix.lower() == ".geo":
+            todo += [(file.parent / os.fsdecode(m)).resolve() for m in _INCLUDE.findall(data)]
+    return digest.hexdigest()
 
 
 def describe(params: dict[str, Any]) -> dict[str, Any]:
@@ -121,6 +149,14 @@ def check_scene(scene, names: dict[str, Any]) -> None:
         raise InputError(f"solid: {shown} has no solid cells (cell groups {', '.join(scene.geometry.cells.solid)})")
     facets = sorted(names["facets"])
     internal = {"interface"} if cells.get("solid") and cells.get("fluid") else set()
+    unnamed, given = names.get("unnamed"), scene.boundaries or {}
+    if unnamed and "default" not in given:
+        near = ", ".join(f"{c:.4g}" for c in unnamed["near"])
+        raise InputError(f"{shown}: {unnamed['count']} boundary facets are in no physical group (the first near "
+                         f"({near})); name them or give boundaries.default")
+    if "default" in given and not unnamed:
+        raise InputError(f"boundaries.default: every boundary facet of {shown} is in a named group (default is the "
+                         "condition of the facets in none); remove it")
     if scene.boundaries is not None:
         for name in scene.boundaries:
             if name in internal:
@@ -170,6 +206,8 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     shown = pathlib.Path(path).name
     for key, value in {"General.Terminal": 0, "General.NumThreads": 1, "Mesh.RandomSeed": 1}.items():
         gmsh.option.setNumber(key, value)
+    if path.lower().endswith(".msh"):  # gmsh keeps one group per name: refuse a file that has two
+        _msh_names_once(path, shown)
     try:
         gmsh.open(path)
     except Exception as exc:  # noqa: BLE001 (gmsh's parser message, one line)
@@ -195,6 +233,14 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     for (dim, tag), name in named.items():
         if not name:
             raise _Refused(f"geometry.path: physical group {tag} of dimension {dim} in {shown} has no name")
+    for (dim, _), name in named.items():
+        twins = sorted(t for (d, t), n in named.items() if d == dim and n == name)
+        if len(twins) > 1:
+            raise _Refused(f"geometry.path: {shown}: physical name \"{name}\" is used by {len(twins)} groups (tags "
+                           f"{', '.join(map(str, twins[:-1]))} and {twins[-1]}); give each group its own name")
+        if dim == 1 and name == "default":
+            raise _Refused(f"geometry.path: {shown}: physical name \"default\" is reserved (boundaries.default is "
+                           "the condition of the boundary facets in no group); rename the group")
     cell_groups = {name: tag for (dim, tag), name in named.items() if dim == 2}
     facet_groups = {name: tag for (dim, tag), name in named.items() if dim == 1}
     fluid_names, solid_names = params["fluid"], params["solid"]
@@ -242,6 +288,7 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
                            "(leave it out: it is found from the cells)")
     facet_entities = {tag: [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(1, tag)]
                       for tag in facet_groups.values()}
+    unnamed = _unnamed_boundary(gmsh, shown, fluid_ents + solid_ents, facet_groups, facet_entities)
     gmsh.model.removePhysicalGroups()
     for ents, tag, name in ((fluid_ents, 1, "fluid"), (solid_ents, 2, "solid")):
         if ents:
@@ -257,8 +304,65 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     for name, tag in facet_groups.items():
         gmsh.model.addPhysicalGroup(1, facet_entities[tag], tag)
         gmsh.model.setPhysicalName(1, tag, name)
+    out: dict[str, Any] = {}
+    if len(unnamed):  # the group ``default``: the scene must give it a condition (check_scene)
+        entity = gmsh.model.addDiscreteEntity(1)
+        gmsh.model.mesh.addElementsByType(entity, 1, [], unnamed.ravel().tolist())
+        facets["default"] = max(facets.values(), default=0) + 1
+        gmsh.model.addPhysicalGroup(1, [entity], facets["default"])
+        gmsh.model.setPhysicalName(1, facets["default"], "default")
+        ends = [gmsh.model.mesh.getNode(int(n))[0][:2] for n in unnamed[0]]
+        out["unnamed"] = {"count": int(len(unnamed)), "near": [round(float(c), 6) for c in np.mean(ends, axis=0)]}
     counts = {"fluid": _count(gmsh, fluid_ents), "solid": _count(gmsh, solid_ents)}
-    return {"facets": facets, "cells": counts}
+    return {"facets": facets, "cells": counts, **out}
+
+
+def _unnamed_boundary(gmsh, shown, cell_entities, facet_groups, facet_entities) -> Any:
+    """The boundary facets (node pairs, sorted) in no named facet group; _Refused if a facet is in two
+    groups. The boundary: the edges of exactly one cell."""
+    import numpy as np
+
+    found = []
+    for e in cell_entities:
+        types, _, nodes = gmsh.model.mesh.getElements(2, e)
+        for etype, enodes in zip(types, nodes):
+            k = 3 if etype == 2 else 4
+            cells = np.asarray(enodes, dtype=np.int64).reshape(-1, k)
+            found += [np.sort(np.stack([cells[:, i], cells[:, (i + 1) % k]], axis=1), axis=1) for i in range(k)]
+    uniq, counts = np.unique(np.concatenate(found), axis=0, return_counts=True)
+    boundary = uniq[counts == 1]
+    owner: dict[tuple[int, int], str] = {}
+    for name, tag in facet_groups.items():
+        lines = [_line_nodes(gmsh, e) for e in facet_entities[tag]]
+        rows = np.unique(np.sort(np.concatenate(lines), axis=1), axis=0) if lines else np.zeros((0, 2), np.int64)
+        for a, b in rows.tolist():
+            other = owner.setdefault((a, b), name)
+            if other != name:
+                x = np.mean([gmsh.model.mesh.getNode(a)[0][:2], gmsh.model.mesh.getNode(b)[0][:2]], axis=0)
+                first, second = sorted((other, name))
+                raise _Refused(f"geometry.path: {shown}: a facet near ({x[0]:.4g}, {x[1]:.4g}) is in two physical "
+                               f"groups, \"{first}\" and \"{second}\"; put each boundary facet in one group")
+    keep = [i for i, (a, b) in enumerate(boundary.tolist()) if (a, b) not in owner]
+    return boundary[keep]
+
+
+def _msh_names_once(path: str, shown: str) -> None:
+    """_Refused if the ``$PhysicalNames`` of a .msh give one name (in one dimension) to two groups."""
+    with open(path, "rb") as f:
+        head = f.read(1 << 20)
+    if b"$PhysicalNames" not in head:
+        return
+    block = head.split(b"$PhysicalNames", 1)[1].split(b"$EndPhysicalNames", 1)[0].decode("utf-8", "replace")
+    tags: dict[tuple[str, str], list[int]] = {}
+    for line in block.strip().splitlines()[1:]:
+        parts = line.split(None, 2)
+        if len(parts) == 3 and parts[0].isdigit() and parts[1].isdigit():
+            tags.setdefault((parts[0], parts[2].strip().strip('"')), []).append(int(parts[1]))
+    for (_, name), found in tags.items():
+        if len(found) > 1:
+            found = sorted(found)
+            raise _Refused(f"geometry.path: {shown}: physical name \"{name}\" is used by {len(found)} groups (tags "
+                           f"{', '.join(map(str, found[:-1]))} and {found[-1]}); give each group its own name")
 
 
 def _line_nodes(gmsh, entity) -> Any:

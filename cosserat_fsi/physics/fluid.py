@@ -16,7 +16,9 @@ equations inside the domain when div u = 0, but its natural outflow condition is
 do-nothing condition μ ∂u/∂n − p n = 0, which Poiseuille flow satisfies.
 
 The pressure penalty enters as −ζ (p, p̃) (the seed writes +ζ; the sign only selects which pressure the
-pure-Dirichlet problem picks, and this one is recorded in every reference run).
+pure-Dirichlet problem picks). scheme/problem.py passes ζ = solver.penalty/(μ + μ_r) in the fluid cells when the
+velocity is prescribed on the whole boundary, else 0 (the boundary fixes the pressure; any ζ > 0 would remove
+ζ ∫ p of the mass).
 """
 
 from __future__ import annotations

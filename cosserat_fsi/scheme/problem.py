@@ -24,6 +24,9 @@ import dolfinx
 import ufl
 from petsc4py import PETSc
 
+WALL_TYPES = ("no_slip", "velocity", "slip")
+"""The boundary types that prescribe the velocity (its normal part at least): the rest fix the pressure."""
+
 
 @dataclass(frozen=True)
 class Model:
@@ -98,6 +101,7 @@ class Problem:
         self._coefficients(exact)
         # DG0: 1 in the fluid cells, 0 in the solid ones (a scene with a solid), else None
         self.fluid_cells = self.cellwise(1.0, 0.0) if self.model.solid else None
+        self._pressure_penalty()
 
     # ------------------------------------------------------------------------------ coefficients
     def constant(self, value) -> dolfinx.fem.Constant:
@@ -148,7 +152,7 @@ class Problem:
             self.rho = self.constant(rho_f)
             self.body_force = dolfinx.fem.Constant(self.mesh, body)
         self.viscous_form = s.fluid.viscous_form if s.fluid is not None else "laplacian"
-        self.penalty = self.constant(s.solver.penalty)
+        self.penalty = self.constant(0.0)  # set by _pressure_penalty once the boundary conditions are known
         self.mu_r = self.lambda1 = self.lambda2 = self.inertia = self.body_couple = None
         if model.micro_rotation:
             m = s.micropolar
@@ -183,6 +187,26 @@ class Problem:
         for update in self._source_updates:
             update(t)
 
+    def pressure_determined(self) -> bool:
+        """Whether the boundary fixes the pressure: some boundary where the velocity is not prescribed
+        (do_nothing, traction, ...); False when no_slip, velocity and slip cover the whole boundary."""
+        return any(bc.type not in WALL_TYPES for bc in self.conditions().values())
+
+    def _pressure_penalty(self) -> None:
+        """ζ of −ζ (p, p̃) (seed eq. 31): 0 when the boundary fixes the pressure; else the dimensionless
+        ``solver.penalty`` over the viscosity μ + μ_r (p/μ ~ div u), in the fluid cells only (the solid's
+        pressure scale is its modulus), to fix the pressure's constant."""
+        s = self.scene
+        if self.pressure_determined() or s.solver.penalty == 0:
+            return
+        viscosity = (s.fluid.mu if s.fluid is not None else 0.0) + (s.micropolar.mu_r if self.model.micro_rotation
+                                                                    else 0.0)
+        if viscosity <= 0:  # a solid-only scene: its shear modulus is the pressure scale
+            viscosity = float(self.mu_s.value) if self.mu_s is not None else 1.0
+        self.penalty.value = s.solver.penalty / viscosity
+        if self.fluid_cells is not None and s.fluid is not None:
+            self.penalty = self.penalty * self.fluid_cells
+
     # -------------------------------------------------------------------------------- boundaries
     def facets(self, *names: str) -> np.ndarray:
         """Local indices of the facets tagged with any of ``names`` (names the mesh lacks: none)."""
@@ -197,11 +221,31 @@ class Problem:
         """The scene's boundary conditions by facet name (``Scene.conditions`` with this mesh's names)."""
         if self.scene.geometry.name != "file" or self.scene.boundaries is not None:
             return self.scene.conditions()
-        x = self.mesh.geometry.x
-        lo = [self.mesh.comm.allreduce(x[:, i].min() if len(x) else np.inf, op=MPI.MIN) for i in (1, 2)]
-        hi = [self.mesh.comm.allreduce(x[:, i].max() if len(x) else -np.inf, op=MPI.MAX) for i in (1, 2)]
-        extent = {"y0": lo[0], "height": hi[0] - lo[0], "z0": lo[1], "width": hi[1] - lo[1]}
-        return self.scene.conditions(self.facet_ids, extent)
+        if getattr(self, "_file_conditions", None) is None:  # collective once (the first call is __init__'s)
+            self._file_conditions = self.scene.conditions(self.facet_ids, self._inlet_extent())
+        return self._file_conditions
+
+    def _inlet_extent(self) -> dict:
+        """{y0, height, z0, width}: the box of the ``inlet`` facets (the default inflow profile spans the
+        inlet), of the whole mesh when there is no inlet."""
+        from .wall_gap import _facet_segments
+
+        comm, x = self.mesh.comm, self.mesh.geometry.x
+        inlet = self.facets("inlet") if "inlet" in self.facet_ids else np.zeros(0, dtype=np.int32)
+        ends = _facet_segments(self.mesh, inlet) if len(inlet) else np.zeros((0, 2, 2))
+        points = ends.reshape(-1, ends.shape[-1])
+        if not comm.allreduce(len(points), op=MPI.SUM):
+            points = x
+        pad = np.zeros((len(points), 3))
+        pad[:, :points.shape[1]] = points
+        lo = [comm.allreduce(pad[:, i].min() if len(pad) else np.inf, op=MPI.MIN) for i in (1, 2)]
+        hi = [comm.allreduce(pad[:, i].max() if len(pad) else -np.inf, op=MPI.MAX) for i in (1, 2)]
+        return {"y0": lo[0], "height": hi[0] - lo[0], "z0": lo[1], "width": hi[1] - lo[1]}
+
+    def wall_boundaries(self) -> tuple:
+        """The names whose velocity is prescribed (no_slip, velocity, slip; the solid keeps its gap from
+        them, scheme/wall_gap.py), whatever they are called."""
+        return tuple(name for name, bc in self.conditions().items() if bc.type in WALL_TYPES)
 
     def no_slip_boundaries(self) -> tuple:
         """The names of type no_slip (``scene.conditions()``: the boundaries section or the preset's)."""
