@@ -27,6 +27,7 @@ from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
+from ..io.profiles import check_profiles, open_profiles
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
@@ -35,7 +36,7 @@ from ..references import reference_for
 from ..simulation import Simulation
 from ..signals import signal_handlers
 from .stop_signals import StopSignals
-from .verdict import classify_signals
+from .verdict import check_reference, classify_signals, compare_with_scene_reference
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -94,12 +95,14 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     observables = Observables(sim, np.asarray(meta["point_A"]) if remeshed and meta.get("point_A") else None,
                               meta.get("solid_points") if remeshed else None)
     signal_handlers(handlers)
+    check_reference(scene, observables.columns)
     if restart:
         agree(comm, sim.restore, state)
         if remeshed:
             sim.mesh_file, sim.remeshes = out_dir / meta["mesh"], list(meta.get("remeshes", []))
         on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
                 scene.output.fields)
+        on_root(comm, check_profiles, out_dir, observables.lines, meta["t"])
 
     def start():  # rank 0: from here on the folder is this run's
         if commit is not None:
@@ -113,12 +116,15 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
              mesh.topology.index_map(mesh.topology.dim).size_global)
     log.info("model: %s", sim.model.describe())
     log.info("dofs: %s", sim.num_dofs())
+    for line in observables.locations():
+        log.info("%s", line)
     setup_time = time.perf_counter() - wall0
 
     steady = scene.time.scheme == "steady"
     n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
     series = fields = bar = stop = None
+    profiles = {}
     earlier_field_steps = meta["field_steps"] if restart else 0
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
@@ -161,13 +167,15 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         if fields is not None and (steady or k % every == 0):
             with sim.timers("output"):
                 _write_fields(fields, sim)
+        if steady or k % every == 0:
+            _write_profiles(profiles, observables, sim)
         if k % every == 0 and getattr(sim.motion, "min_quality", None) is not None:
             log.info("t = %.6g: minimum cell quality %.4g (lowest so far %.4g)", sim.t, sim.motion.min_quality,
                      sim.motion.lowest_quality)
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
-        signum = _step_end(comm, stop, series)
+        signum = _step_end(comm, stop, [series, *profiles.values()])
         if signum:
             checkpoint()
             raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
@@ -178,6 +186,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     try:
         series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
                                   keep_rows=meta["rows"] if restart else None)
+        profiles = open_profiles(out_dir, observables.lines, comm, meta["t"] if restart else None)
         if scene.output.fields:
             fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
                                     keep_steps=earlier_field_steps if restart and earlier_field_steps else None)
@@ -187,10 +196,13 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         with StopSignals() as stop:
             if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, sim)
+            if not restart and not steady:
+                _write_profiles(profiles, observables, sim)
             sim.run(n_steps, observers=[observe], after_step=[after_step])
             sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
-        series.close()
-        share(comm, series.error)
+        for writer in (series, *profiles.values()):
+            writer.close()
+            share(comm, writer.error)
     except BaseException as exc:
         if comm.size > 1 and not (is_shared(exc) or isinstance(exc, DivergenceError)):
             status = "local"
@@ -202,6 +214,8 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             bar.close()
         if series is not None:
             series.close()
+        for writer in profiles.values():
+            writer.close()
         if fields is not None:
             fields.close()
         if status != "local":
@@ -221,10 +235,18 @@ def _status_of(exc: BaseException) -> tuple[str, str]:
     return "failed", f"{type(exc).__name__}: {exc}"
 
 
-def _step_end(comm, stop, series) -> int:
+def _write_profiles(profiles: dict, observables, sim) -> None:
+    """One block per ``observables.lines`` profile (collective evaluation, rank 0 writes)."""
+    if profiles:
+        with sim.timers("observables"):
+            for name, values in observables.profiles().items():
+                profiles[name].write(sim.t, values)
+
+
+def _step_end(comm, stop, writers) -> int:
     """End of a step, on every rank: a failed row write (disk full) is raised everywhere; else the largest
     signal number any rank received (0: none)."""
-    error = series.error
+    error = next((w.error for w in writers if w.error is not None), None)
     if comm.size > 1:
         signum, failed = comm.allreduce((stop.signum, error is not None), op=MPI.MAX)
     else:
@@ -318,6 +340,8 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             summary["remeshes"] = {"count": len(sim.remeshes), "events": sim.remeshes}
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
+        if scene.reference:
+            summary["reference"] = compare_with_scene_reference(scene.reference, summary)
         atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))
         return summary
 

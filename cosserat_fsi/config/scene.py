@@ -12,7 +12,7 @@ from cosserat_fsi.geometry import Geometry
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
 from .physics import Fluid, Inflow, Micropolar, Solid
-from .sections import BoundaryCondition, ObservableSet, Output
+from .sections import BoundaryCondition, ObservableSet, Output, Reference
 from .solver import Solver
 from .time import Time
 
@@ -29,6 +29,7 @@ class Scene(_Section):
     inflow: Inflow | None = None
     boundaries: dict[str, BoundaryCondition] | None = None
     observables: ObservableSet | None = None
+    reference: dict[str, Reference] | None = None
     time: Time
     solver: Solver = Field(default_factory=Solver)
     output: Output = Field(default_factory=Output)
@@ -68,6 +69,13 @@ class Scene(_Section):
                 raise ValueError(f"observables: only for geometry file (geometry {geo.name} has its own)")
             if self.observables.solid_points and self.solid is None:
                 raise ValueError("observables.solid_points: the scene has no solid section")
+        for name, ref in (self.reference or {}).items():
+            if not re.fullmatch(r"\w{1,100}", name):
+                raise ValueError(f"reference.{name[:40]}: not a time-series column name")
+            if time.scheme == "steady" and ref.value is None:
+                raise ValueError(f"reference.{name}: a steady scene has one state, no periodic parts (give value)")
+        if self.benchmark is not None and self.reference:
+            raise ValueError("reference: not with benchmark (a benchmark brings its own references)")
         if self.boundaries is not None:
             if geo.name != "file":
                 raise ValueError(f"boundaries: only for geometry file (geometry {geo.name} sets its own)")

@@ -25,10 +25,13 @@ FORMAT = 1
 
 
 def scene_fingerprint(scene) -> str:
-    """Hash of the scene without what a restart may change (t_end, output, name)."""
+    """Hash of the scene without what a restart may change (t_end, output, name, reference)."""
     data = scene.model_dump(mode="json")
     data.pop("output", None)
     data.pop("name", None)
+    data.pop("reference", None)
+    if isinstance(data.get("observables"), dict) and not data["observables"].get("lines"):
+        data["observables"].pop("lines", None)  # no profiles: the hash of a scene written before they existed
     data.get("time", {}).pop("t_end", None)
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 

@@ -1,0 +1,122 @@
+"""A scene's own observables: ``observables.lines`` profiles (line_NAME.csv), where the probes landed
+(run.log), a ``reference`` section's verdict, the scene's columns in ``plot`` and in the ``result:`` line.
+
+The channel of tests/data/user_scene/channel.geo (2 x 1, structured triangles) with a parabolic inflow
+u = 4 y (1 − y), a do-nothing outlet and μ = 1: steady Stokes–Navier–Stokes flow is exactly that parabola
+with a linear pressure p = 8 (2 − x), both in the P2/P1 spaces, so a profile across the channel equals the
+parabola to round-off, on 1 and 2 ranks.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+DATA = Path(__file__).parent / "data" / "user_scene"
+
+
+def _scene(folder: Path, extra: str = "", time: str = "{scheme: steady}") -> Path:
+    path = folder / "scene.yaml"
+    path.write_text(f"geometry: {{name: file, path: {DATA}/channel.geo}}\n"
+                    "fluid: {rho: 1.0, mu: 1.0}\n"
+                    f"time: {time}\n"
+                    "boundaries: {inlet: {type: velocity, value: ['4*y*(1 - y)', 0]}, outlet: {type: do_nothing},\n"
+                    "             top: {type: no_slip}, bottom: {type: no_slip}}\n"
+                    "observables: {points: {C: [1.0, 0.5]}, lines: {across: {from: [1.3, 0.0], to: [1.3, 1.0], "
+                    "points: 11}}}\n"
+                    "solver: {penalty: 0.0}\n"
+                    "output: {progress: false, fields: false}\n" + extra)
+    return path
+
+
+def _read(path: Path) -> tuple[list[str], np.ndarray]:
+    """(header, rows) of a line_NAME.csv (what pandas.read_csv reads)."""
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    return header, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+
+
+def _exact_check(header, rows):
+    frame = dict(zip(header, rows.T))
+    y = frame["y"]
+    assert np.allclose(frame["s"], np.linspace(0, 1, 11), atol=1e-15)
+    assert np.allclose(frame["x"], 1.3, atol=1e-15)
+    assert np.abs(frame["u"] - 4 * y * (1 - y)).max() < 1e-10
+    assert np.abs(frame["v"]).max() < 1e-10
+    assert np.abs(frame["p"] - 8 * (2 - 1.3)).max() < 1e-9
+
+
+def test_poiseuille_profile_is_the_exact_parabola_on_one_and_two_ranks(run_cli, mpirun, tmp_path):
+    scene = _scene(tmp_path)
+    one = run_cli("run", scene, "--out", tmp_path / "one")
+    assert one.returncode == 0, one.stderr
+    two = run_cli("run", scene, "--out", tmp_path / "two", launcher=mpirun(2))
+    assert two.returncode == 0, two.stderr
+    (header, a), (_, b) = (_read(tmp_path / run / "line_across.csv") for run in ("one", "two"))
+    assert header == ["t", "s", "x", "y", "u", "v", "p"] and a.shape == (11, 7)  # steady: one block
+    _exact_check(header, a)
+    assert np.abs(a - b).max() < 1e-12
+    log = (tmp_path / "one" / "run.log").read_text()
+    assert "probe C at (1, 0.5): inside the mesh, fluid cell" in log
+    assert "line across: 11 points from (1.3, 0.0) to (1.3, 1.0)" in log
+
+
+def test_lines_every_output_step_and_restart_continues_the_file(run_cli, tmp_path):
+    """Time-dependent: a block at t = 0 and every output.every steps; a restart from the checkpoint of step
+    2 keeps the blocks up to it and gives the file of an uninterrupted run."""
+    time = "{scheme: characteristics1, dt: 0.1, t_end: 0.4}"
+    extra = "micropolar: {mu_r: 0.5, lambda1: 0.1}\n"
+    scene = _scene(tmp_path, extra, time)
+    text = scene.read_text().replace("fields: false}", "fields: false, every: 2, checkpoint_every: 2}")
+    scene.write_text(text)
+    full = run_cli("run", scene, "--out", tmp_path / "full")
+    assert full.returncode == 0, full.stderr
+    header, frame = _read(tmp_path / "full" / "line_across.csv")
+    assert header == ["t", "s", "x", "y", "u", "v", "p", "omega"]
+    assert np.unique(frame[:, 0]) == pytest.approx([0.0, 0.2, 0.4]) and len(frame) == 33
+    short = scene.read_text().replace("t_end: 0.4", "t_end: 0.3")
+    (tmp_path / "short.yaml").write_text(short)
+    cut = run_cli("run", tmp_path / "short.yaml", "--out", tmp_path / "cut")
+    assert cut.returncode == 0, cut.stderr
+    assert json.loads((tmp_path / "cut" / "checkpoint" / "meta.json").read_text())["step"] == 2
+    again = run_cli("run", scene, "--restart", tmp_path / "cut")
+    assert again.returncode == 0, again.stderr
+    _, restarted = _read(tmp_path / "cut" / "line_across.csv")
+    assert restarted.shape == frame.shape and np.abs(restarted - frame).max() < 1e-12
+
+
+@pytest.mark.parametrize("reference, verdict", [
+    ("{u_C: {value: 1.0, tolerance: 1.0e-6}}", "PASS (1/1"),
+    ("{u_C: {value: 1.1, tolerance: 0.01}}", "FAIL (0/1"),
+    ("{v_C: {value: 0, abs_tolerance: 1.0e-8}, p_C: {value: 8.0, tolerance: 1.0e-6}}", "PASS (2/2"),
+])
+def test_reference_section_gives_a_verdict(run_cli, tmp_path, reference, verdict):
+    """u at the centre of the channel is exactly 1, p at x = 1 exactly 8: the verdict table of the run."""
+    result = run_cli("run", _scene(tmp_path, f"reference: {reference}\n"), "--out", tmp_path / "run")
+    assert result.returncode == 0, result.stderr
+    out = result.stdout + result.stderr
+    assert f"reference: {verdict} within tolerance)" in out, out
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["reference"]["u_C" if "u_C" in reference else "v_C"]["reference"] in (1.0, 1.1, 0.0)
+    assert "u_C = 1" in out  # the scene's own probe in the result line
+
+
+def test_plot_draws_the_scene_probes(run_cli, tmp_path):
+    scene = _scene(tmp_path, time="{scheme: characteristics1, dt: 0.1, t_end: 0.2}")
+    assert run_cli("run", scene, "--out", tmp_path / "run").returncode == 0
+    result = run_cli("plot", tmp_path / "run", "--out", tmp_path / "plots")
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "plots" / "probes.png").is_file()
+
+
+def test_resolved_config_with_lines_and_reference_loads_again(tmp_path):
+    from cosserat_fsi.config import dump_resolved, load_scene
+
+    scene = load_scene(_scene(tmp_path, "reference: {u_C: {mean: 1.0, frequency: 2.0, tolerance: 0.1}}\n",
+                              "{scheme: characteristics1, dt: 0.1, t_end: 0.2}"))
+    (tmp_path / "resolved.yaml").write_text(dump_resolved(scene))
+    again = load_scene(tmp_path / "resolved.yaml")
+    assert again == scene and "from:" in dump_resolved(scene)
