@@ -76,7 +76,7 @@ class Observables:
             self._space_points = sim.velocity.function_space  # kept: after a remesh sim's is the new mesh's
             self.columns += [f"{c}_{name}" for name in named.solid_points for c in ("ux", "uy")]
         self.lines = {}  # name -> (column names, arc lengths, points (N, 3))
-        for name, line in (named.lines.items() if named is not None else ()):
+        for name, line in ((named.lines or {}).items() if named is not None else ()):
             arc, xy = line.samples()
             points = np.column_stack([xy, np.zeros(len(xy))])
             _inside(sim, f"observables.lines.{name}", points)
@@ -152,7 +152,7 @@ class Observables:
             asked = np.asarray(named.solid_points[name], dtype=float)
             out.append(f"solid point {name} asked at ({asked[0]:.6g}, {asked[1]:.6g}): solid node at "
                        f"({x[0]:.6g}, {x[1]:.6g}), {np.linalg.norm(x - asked):.3g} from it")
-        for name, line in named.lines.items():
+        for name, line in (named.lines or {}).items():
             out.append(f"line {name}: {line.points} points from {tuple(line.start)} to {tuple(line.to)}, all inside "
                        f"the mesh -> line_{name}.csv")
         return out

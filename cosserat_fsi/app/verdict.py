@@ -126,8 +126,9 @@ def compare_with_scene_reference(reference: dict, summary: dict) -> dict:
             absolute = ref.abs_tolerance is not None
             error = None if value is None else (value - expected if absolute else (value - expected) / abs(expected))
             tol = ref.abs_tolerance if absolute else ref.tolerance
+            ok = error is not None and abs(error) <= tol
             out[label] = {"value": value, "reference": expected, "error": error, "tolerance": tol,
-                          "absolute": absolute, "verdict": "pass" if error is not None and abs(error) <= tol else "FAIL"}
+                          "absolute": absolute, "verdict": "pass" if ok else "FAIL"}
     return out
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+from pydantic import BeforeValidator, Field, ValidationInfo, create_model, field_validator, model_validator
 
 from cosserat_fsi.expressions import ExpressionError, parse as parse_expression
 
@@ -70,22 +70,21 @@ MAX_LINE_POINTS = 10_000
 """Most sample points of one ``observables.lines`` profile."""
 
 
-class Line(_Section):
+class _Line(_Section):
     """A profile along a segment (``observables.lines.NAME``): ``from: [x, y]``, ``to: [x, y]``, ``points: N``
-    (2 to 10000 equally spaced samples, both ends included)."""
+    (2 to 10000 equally spaced samples, both ends included). (``from`` is a Python keyword: the class is made
+    by ``create_model`` below, and the start is ``line.start``.)"""
 
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, validate_by_name=True,
-                              validate_by_alias=True, serialize_by_alias=True)
+    @field_validator("to", check_fields=False)
+    @classmethod
+    def _length(cls, value: list, info: ValidationInfo) -> list:
+        if value == info.data.get("from"):
+            raise ValueError("must differ from 'from' (a segment of length 0)")
+        return value
 
-    start: Point = Field(alias="from")
-    to: Point
-    points: int = Field(ge=2, le=MAX_LINE_POINTS)
-
-    @model_validator(mode="after")
-    def _length(self):
-        if self.start == self.to:
-            raise ValueError("to: must differ from 'from' (a segment of length 0)")
-        return self
+    @property
+    def start(self) -> list:
+        return getattr(self, "from")
 
     def samples(self):
         """(s, x): arc lengths (N,) and positions (N, 2) of the samples."""
@@ -94,6 +93,10 @@ class Line(_Section):
         a, b = np.asarray(self.start, dtype=float), np.asarray(self.to, dtype=float)
         lam = np.linspace(0.0, 1.0, self.points)
         return lam * float(np.linalg.norm(b - a)), a + lam[:, None] * (b - a)
+
+
+Line = create_model("Line", __base__=_Line, __module__=__name__, **{
+    "from": (Point, ...), "to": (Point, ...), "points": (int, Field(ge=2, le=MAX_LINE_POINTS))})
 
 
 class ObservableSet(_Section):
@@ -116,12 +119,12 @@ class ObservableSet(_Section):
     wetted_solid: bool = False
     points: dict[str, Point] = Field(default_factory=dict)
     solid_points: dict[str, Point] = Field(default_factory=dict)
-    lines: dict[str, Line] = Field(default_factory=dict)
+    lines: dict[str, Line] | None = None
 
     @field_validator("points", "solid_points", "lines")
     @classmethod
-    def _names(cls, value: dict) -> dict:
-        for name in value:
+    def _names(cls, value: dict | None) -> dict | None:
+        for name in value or ():
             if not re.fullmatch(r"[A-Za-z0-9_]{1,40}", name):
                 raise ValueError(f"{name[:40]!r}: names are 1 to 40 letters, digits or '_' (they name columns/files)")
         return value
@@ -161,7 +164,8 @@ class Reference(_Section):
 
     def parts(self) -> dict:
         """{"value" | "mean" | "amplitude" | "frequency": reference} of what is given."""
-        return {k: getattr(self, k) for k in ("value", "mean", "amplitude", "frequency") if getattr(self, k) is not None}
+        given = {k: getattr(self, k) for k in ("value", "mean", "amplitude", "frequency")}
+        return {k: v for k, v in given.items() if v is not None}
 
 
 class Output(_Section):
