@@ -67,8 +67,17 @@ def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
         full.mkdir()
     comm.barrier()
     run_scene(scene, full, comm, progress=False)
+    short = shared_tmp / "short"  # its checkpoint at its last step: the full run's of that step
+    steps = scene.output.checkpoint_every * (round(scene.time.t_end / scene.time.dt) // scene.output.checkpoint_every)
+    if comm.rank == 0:
+        short.mkdir()
+    comm.barrier()
+    run_scene(scene.model_copy(update={"time": scene.time.model_copy(update={"t_end": steps * scene.time.dt})}),
+              short, comm, progress=False)
     if comm.rank == 0:  # a copy "killed" after the last checkpoint: later rows and field steps half-written
         shutil.copytree(full, cut)
+        shutil.rmtree(cut / "checkpoint")
+        shutil.copytree(short / "checkpoint", cut / "checkpoint")
         meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
         lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
         (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
@@ -206,3 +215,23 @@ def test_kill_9_leaves_readable_output(run_cli, tmp_path, repo_root, delay):
         for k in range(len(times)):
             assert np.isfinite(f[f"mesh/geometry/{k:06d}"][:]).all()
             assert np.isfinite(f[f"point/velocity/{k:06d}"][:]).all()
+
+
+def test_a_finished_run_is_extended_from_its_last_step(run_cli, tmp_path):
+    """A finished run ends with a checkpoint of its last step: ``--restart`` with a later ``time.t_end``
+    computes only the new steps (2 of 5) and gives the 5-step run's time series to 1e-12."""
+    short, full = tmp_path / "short", tmp_path / "full"
+    config = _config(tmp_path, t_end=0.15)  # 3 steps
+    assert run_cli("run", config, "--out", short, "--no-progress").returncode == 0
+    meta = json.loads((short / "checkpoint" / "meta.json").read_text())
+    assert meta["step"] == meta["rows"] == 3
+    again = run_cli("run", config, "--restart", short, "--no-progress", "--set", "time.t_end=0.25")
+    assert again.returncode == 0, again.stderr
+    assert "restart from the checkpoint of step 3" in (short / "run.log").read_text()
+    summary = json.loads((short / "summary.json").read_text())
+    assert summary["time"]["steps"] == 5 and summary["status"] == "completed"
+    assert run_cli("run", _config(tmp_path, t_end=0.25), "--out", full, "--no-progress").returncode == 0
+    a, b = read_timeseries(full / "timeseries.csv"), read_timeseries(short / "timeseries.csv")
+    assert list(a) == list(b) and len(a["t"]) == len(b["t"]) == 5
+    for key in a:
+        assert np.abs(a[key] - b[key]).max() <= 1e-12 * max(np.abs(a[key]).max(), 1.0), key

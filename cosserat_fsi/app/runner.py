@@ -68,7 +68,9 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
     output): the time series and fields after the checkpoint are dropped and rewritten; field steps
     before it are kept even if ``output.fields`` is now off. A checkpoint is written every
-    ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then stop the run (:class:`Interrupted`).
+    ``output.checkpoint_every`` steps, at the last step (so ``--restart`` with a later ``time.t_end`` extends a
+    finished run without recomputing it; not with ``checkpoint_every: 0``) and on SIGTERM/SIGINT, which then
+    stop the run (:class:`Interrupted`).
 
     Order (docs/reliability.md): read and check the checkpoint and every file of the folder, build the
     mesh and the simulation, and only then ``commit()`` (rank 0: the CLI removes an overwritten run and
@@ -180,7 +182,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             checkpoint()
             raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
                               f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
-        if every_ck and k % every_ck == 0 and k < n_steps:
+        if every_ck and not steady and (k % every_ck == 0 or k == n_steps):  # the last step too: see run_scene
             checkpoint()
 
     try:

@@ -169,10 +169,13 @@ class Reference(_Section):
 
 
 class Output(_Section):
-    """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval."""
+    """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval.
+
+    ``checkpoint_every``: steps between checkpoints (default 1000); a time-dependent run also writes one at
+    its last step, so ``cosserat-fsi run SCENE --restart OUT --set time.t_end=LATER`` extends a finished run
+    without recomputing it; 0: checkpoints only on SIGTERM/SIGINT (none at the end)."""
 
     every: int = Field(default=10, ge=1, le=MAX_COUNT)
     fields: bool = True
     progress: bool = True
-    # steps between checkpoints; 0: only on SIGTERM/SIGINT
     checkpoint_every: int = Field(default=1000, ge=0, le=MAX_COUNT)
