@@ -120,3 +120,53 @@ def test_resolved_config_with_lines_and_reference_loads_again(tmp_path):
     (tmp_path / "resolved.yaml").write_text(dump_resolved(scene))
     again = load_scene(tmp_path / "resolved.yaml")
     assert again == scene and "from:" in dump_resolved(scene)
+
+
+def _strip(rows: int, columns: int = 6) -> np.ndarray:
+    """The corners (n, 3, 2) of a structured strip of ``rows`` x ``columns`` squares, two triangles each."""
+    out = []
+    for i in range(columns):
+        for j in range(rows):
+            a, b, c, d = (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)
+            out += [[a, b, c], [a, c, d]]
+    return np.array(out, dtype=float) * 0.1
+
+
+@pytest.mark.parametrize("rows, across", [(1, 1), (2, 2), (3, 2), (4, 4), (5, 4)])
+def test_cells_across_a_strip(rows, across):
+    """2·(largest vertex depth from the boundary), at least 1: never more than the strip's rows."""
+    from cosserat_fsi.mesh_report import _regions
+
+    assert _regions(_strip(rows)) == [{"cells": 12 * rows, "across": across}]
+
+
+def test_two_solid_regions_are_counted_apart():
+    from cosserat_fsi.mesh_report import _regions
+
+    far = _strip(1) + np.array([5.0, 0.0])  # a thin strip beside a thick one
+    assert _regions(np.concatenate([_strip(4), far])) == [{"cells": 48, "across": 4}, {"cells": 12, "across": 1}]
+
+
+def test_run_log_names_conditions_probes_and_the_solid(run_cli, tmp_path):
+    """A file scene with a solid block and no boundaries section for 'clamp' and 'walls' (their defaults by
+    name): run.log lists every boundary's condition, where the probe and the solid point landed, the block's
+    cells across; config.yaml lists the conditions and loads again as the same scene."""
+    from cosserat_fsi.config import load_scene
+
+    (tmp_path / "block.geo").write_text((DATA / "block_channel.geo").read_text())
+    scene = tmp_path / "scene.yaml"
+    scene.write_text("geometry: {name: file, path: block.geo}\nfluid: {rho: 1.0, mu: 0.01}\n"
+                     "solid: {rho: 1.0, mu_s: 100.0}\ninflow: {u_mean: 1.0}\n"
+                     "observables: {points: {B: [1.5, 0.5]}, solid_points: {top: [0.93, 0.41]}}\n"
+                     "time: {scheme: characteristics1, dt: 0.01, t_end: 0.01}\noutput: {progress: false}\n")
+    result = run_cli("run", scene, "--out", tmp_path / "run")
+    assert result.returncode == 0, result.stderr
+    log = (tmp_path / "run" / "run.log").read_text()
+    assert "boundaries:\n  walls: no_slip\n" in log and "  clamp: no_slip\n" in log
+    assert "  inlet: velocity ['(6.0*1.0*y*(1.0 - y)/1.0**2)', '0']\n" in log
+    assert "probe B at (1.5, 0.5): inside the mesh, fluid cell" in log
+    assert "solid point top asked at (0.93, 0.41): solid node at (" in log
+    assert "solid region 1: " in log and "cells across" in log
+    config = (tmp_path / "run" / "config.yaml").read_text()
+    assert "#   walls: no_slip\n" in config
+    assert load_scene(tmp_path / "run" / "config.yaml") == load_scene(scene)

@@ -3,8 +3,8 @@
 Above 350 lines because the error path around the loop lives here with it: the order of work (check,
 set up, commit, write), the shared end-of-step check, the summary that tells how the run ended.
 
-Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
-summary.json (and run.log through the CLI's logging).
+Writes into the output folder: config.yaml (resolved), timeseries.csv, line_NAME.csv (``observables.lines``),
+fields.xdmf + fields.h5, summary.json (and run.log through the CLI's logging).
 """
 
 from __future__ import annotations
@@ -23,11 +23,13 @@ from mpi4py import MPI
 from .. import __version__, compat
 from ..analysis import relative_error
 from ..config import Scene, dump_resolved
+from ..config.scene import condition_lines
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.profiles import check_profiles, open_profiles
+from ..mesh_report import log_solid_resolution
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
@@ -106,10 +108,13 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
                 scene.output.fields)
         on_root(comm, check_profiles, out_dir, observables.lines, meta["t"])
 
+    micro = sim.model.micro_rotation
+    conditions = [] if sim.exact is not None else condition_lines(scene, sim.problem.conditions(), micro)
+
     def start():  # rank 0: from here on the folder is this run's
         if commit is not None:
             commit()
-        atomic_write_text(out_dir / "config.yaml", dump_resolved(scene))
+        atomic_write_text(out_dir / "config.yaml", dump_resolved(scene, conditions))
 
     on_root(comm, start, step="commit")
     if restart:
@@ -118,15 +123,17 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
              mesh.topology.index_map(mesh.topology.dim).size_global)
     log.info("model: %s", sim.model.describe())
     log.info("dofs: %s", sim.num_dofs())
-    for line in observables.locations():
+    log.info("boundaries:%s", "".join(f"\n  {c}" for c in conditions) or " the exact solution's (but the outlet)")
+    for line in observables.locations():  # where the probes landed; the solid's cells across
         log.info("%s", line)
+    if sim.model.solid:
+        log_solid_resolution(sim.mesh, sim.cell_tags, comm)
     setup_time = time.perf_counter() - wall0
-
     steady = scene.time.scheme == "steady"
     n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
     series = fields = bar = stop = None
-    profiles = {}
+    profiles: dict = {}
     earlier_field_steps = meta["field_steps"] if restart else 0
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
@@ -216,8 +223,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             bar.close()
         if series is not None:
             series.close()
-        for writer in profiles.values():
-            writer.close()
+        [writer.close() for writer in profiles.values()]
         if fields is not None:
             fields.close()
         if status != "local":
@@ -239,10 +245,9 @@ def _status_of(exc: BaseException) -> tuple[str, str]:
 
 def _write_profiles(profiles: dict, observables, sim) -> None:
     """One block per ``observables.lines`` profile (collective evaluation, rank 0 writes)."""
-    if profiles:
-        with sim.timers("observables"):
-            for name, values in observables.profiles().items():
-                profiles[name].write(sim.t, values)
+    with sim.timers("observables"):
+        for name, values in observables.profiles().items():
+            profiles[name].write(sim.t, values)
 
 
 def _step_end(comm, stop, writers) -> int:

@@ -162,6 +162,23 @@ class Scene(_Section):
         return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False, default_flow_style=False)
 
 
-def dump_resolved(scene: Scene) -> str:
-    """The fully resolved scene as YAML (same as ``scene.to_yaml()``)."""
-    return scene.to_yaml()
+def condition_lines(scene: Scene, conditions: dict, micro: bool) -> list[str]:
+    """One line per boundary, the condition it got: ``inlet: velocity ['4*y*(1 - y)', '0'], micro_rotation
+    free`` (the micro-rotation part with micropolar terms only)."""
+    wall = scene.micropolar.wall_condition
+    out = []
+    for name, bc in conditions.items():
+        value = f" {[str(v) for v in bc.value]}" if bc.value is not None else ""
+        out.append(f"{name}: {bc.type}{value}" + (f", micro_rotation {bc.micro(wall)}" if micro else ""))
+    return out
+
+
+def dump_resolved(scene: Scene, conditions: list[str] | None = None) -> str:
+    """The fully resolved scene as YAML (``scene.to_yaml()``); ``conditions``: the lines of
+    :func:`condition_lines`, appended as a comment block when the scene has no ``boundaries`` section (a
+    built-in geometry's preset, or a file scene's defaults by name), so that the file still loads as it is."""
+    text = scene.to_yaml()
+    if conditions and scene.boundaries is None:
+        text += ("# boundaries, as resolved from the geometry's preset (a comment: only a file scene takes a "
+                 "boundaries section):\n" + "".join(f"#   {line}\n" for line in conditions))
+    return text
