@@ -10,6 +10,7 @@ parabola to round-off, on 1 and 2 ranks.
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -77,12 +78,16 @@ def test_lines_every_output_step_and_restart_continues_the_file(run_cli, tmp_pat
     header, frame = _read(tmp_path / "full" / "line_across.csv")
     assert header == ["t", "s", "x", "y", "u", "v", "p", "omega"]
     assert np.unique(frame[:, 0]) == pytest.approx([0.0, 0.2, 0.4]) and len(frame) == 33
-    short = scene.read_text().replace("t_end: 0.4", "t_end: 0.3")
+    short = scene.read_text().replace("t_end: 0.4", "t_end: 0.2")  # its checkpoint: the full run's of step 2
     (tmp_path / "short.yaml").write_text(short)
-    cut = run_cli("run", tmp_path / "short.yaml", "--out", tmp_path / "cut")
-    assert cut.returncode == 0, cut.stderr
-    assert json.loads((tmp_path / "cut" / "checkpoint" / "meta.json").read_text())["step"] == 2
-    again = run_cli("run", scene, "--restart", tmp_path / "cut")
+    assert run_cli("run", tmp_path / "short.yaml", "--out", tmp_path / "short").returncode == 0
+    cut = tmp_path / "cut"  # the full run "killed" after step 2 (with its later blocks written)
+    shutil.copytree(tmp_path / "full", cut)
+    shutil.rmtree(cut / "checkpoint")
+    shutil.copytree(tmp_path / "short" / "checkpoint", cut / "checkpoint")
+    assert json.loads((cut / "checkpoint" / "meta.json").read_text())["step"] == 2
+    (cut / "line_across.csv").write_text((cut / "line_across.csv").read_text() + "0.5,1,2")  # a torn block
+    again = run_cli("run", scene, "--restart", cut)
     assert again.returncode == 0, again.stderr
     _, restarted = _read(tmp_path / "cut" / "line_across.csv")
     assert restarted.shape == frame.shape and np.abs(restarted - frame).max() < 1e-12
