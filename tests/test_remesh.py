@@ -206,6 +206,8 @@ def remeshed_runs(tmp_path_factory):
     import shutil
     import tempfile
 
+    from test_restart import run_keeping_checkpoint
+
     from cosserat_fsi.app.runner import run_scene
 
     comm = MPI.COMM_WORLD
@@ -215,16 +217,11 @@ def remeshed_runs(tmp_path_factory):
         full.mkdir()
     comm.barrier()
     scene = validate_scene(RUN)
-    run_scene(scene, full, comm, progress=False)
-    short = root / "short"  # 4 steps: its last-step checkpoint is the full run's of step 4
-    if comm.rank == 0:
-        short.mkdir()
-    comm.barrier()
-    run_scene(validate_scene({**RUN, "time": {**RUN["time"], "t_end": 0.04}}), short, comm, progress=False)
+    kept = run_keeping_checkpoint(scene, full, comm, 4)  # the run's last checkpoint is of its last step
     if comm.rank == 0:
         shutil.copytree(full, cut)
         shutil.rmtree(cut / "checkpoint")
-        shutil.copytree(short / "checkpoint", cut / "checkpoint")
+        shutil.copytree(kept, cut / "checkpoint")
         meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
         assert meta["step"] == 4 and meta["mesh"] == "meshes/remesh_002.msh" and len(meta["remeshes"]) == 2
         lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)

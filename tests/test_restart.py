@@ -36,6 +36,26 @@ FSI_GA_CORRECTOR = {**FSI, "time": {**FSI_GA["time"], "corrector_passes": 1}}
 FSI_SVK = {**FSI_ALE, "solid": {"law": "saint_venant_kirchhoff", "rho": 1000.0, "mu_s": 5.0e5, "lambda_s": 2.0e6}}
 
 
+def run_keeping_checkpoint(scene, out: Path, comm, step: int) -> Path:
+    """Run ``scene`` into ``out`` and keep a copy of its checkpoint of ``step`` (a finished run's checkpoint
+    is of its last step): the folder ``out.parent / "checkpoint_STEP"``."""
+    import cosserat_fsi.app.runner as runner
+
+    original, kept = runner.write_checkpoint, out.parent / f"checkpoint_{step}"
+
+    def write_and_keep(run_dir, sim, comm, meta):
+        original(run_dir, sim, comm, meta)
+        if sim.step_count == step and comm.rank == 0:
+            shutil.copytree(Path(run_dir) / "checkpoint", kept)
+
+    runner.write_checkpoint = write_and_keep
+    try:
+        run_scene(scene, out, comm, progress=False)
+    finally:
+        runner.write_checkpoint = original
+    return kept
+
+
 @pytest.fixture
 def shared_tmp():
     comm = MPI.COMM_WORLD
@@ -66,18 +86,12 @@ def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
     if comm.rank == 0:
         full.mkdir()
     comm.barrier()
-    run_scene(scene, full, comm, progress=False)
-    short = shared_tmp / "short"  # its checkpoint at its last step: the full run's of that step
-    steps = scene.output.checkpoint_every * (round(scene.time.t_end / scene.time.dt) // scene.output.checkpoint_every)
-    if comm.rank == 0:
-        short.mkdir()
-    comm.barrier()
-    run_scene(scene.model_copy(update={"time": scene.time.model_copy(update={"t_end": steps * scene.time.dt})}),
-              short, comm, progress=False)
+    n, every = round(scene.time.t_end / scene.time.dt), scene.output.checkpoint_every
+    kept = run_keeping_checkpoint(scene, full, comm, every * ((n - 1) // every))  # the last one before the end
     if comm.rank == 0:  # a copy "killed" after the last checkpoint: later rows and field steps half-written
         shutil.copytree(full, cut)
         shutil.rmtree(cut / "checkpoint")
-        shutil.copytree(short / "checkpoint", cut / "checkpoint")
+        shutil.copytree(kept, cut / "checkpoint")
         meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
         lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
         (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
