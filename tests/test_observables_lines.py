@@ -175,3 +175,22 @@ def test_run_log_names_conditions_probes_and_the_solid(run_cli, tmp_path):
     config = (tmp_path / "run" / "config.yaml").read_text()
     assert "#   walls: no_slip\n" in config
     assert load_scene(tmp_path / "run" / "config.yaml") == load_scene(scene)
+
+
+def test_periodic_reference_parts_and_a_column_not_periodic_yet():
+    """mean/amplitude/frequency against summary.json's periodic analysis (relative errors); a column that is
+    not periodic by the end FAILs with its state named; the verdict line counts both."""
+    from cosserat_fsi.app.verdict import compare_with_scene_reference, verdict_lines
+    from cosserat_fsi.config.sections import Reference
+
+    summary = {"final": {"uy_tip": 0.01, "drag": 2.0}, "signals": {"uy_tip": "periodic", "drag": "not periodic yet"},
+               "periodic": {"uy_tip": {"mean": 0.001, "amplitude": 0.0202, "frequency": 2.0}}}
+    reference = {"uy_tip": Reference(amplitude=0.02, frequency=2.0, tolerance=0.02),
+                 "drag": Reference(mean=2.0, abs_tolerance=0.1)}
+    summary["reference"] = compare_with_scene_reference(reference, summary)
+    assert summary["reference"]["uy_tip.amplitude"]["error"] == pytest.approx(0.01, rel=1e-12)
+    assert summary["reference"]["uy_tip.frequency"]["verdict"] == "pass"
+    assert summary["reference"]["drag.mean (not periodic yet)"]["verdict"] == "FAIL"
+    lines = verdict_lines(summary)
+    assert "reference: FAIL (2/3 within tolerance)" in lines
+    assert any(line.startswith("uy_tip.amplitude") and line.rstrip().endswith("pass") for line in lines)

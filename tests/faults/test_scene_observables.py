@@ -1,6 +1,7 @@
 """A file scene's own observables and references misused: ``observables.lines`` (outside the mesh, too few or
 too many points, wrong dimensions, a segment of length 0), probes outside the mesh, a ``reference`` to a
-column the scene does not have or with a bad tolerance. Each is one line ``error: <key>: ...``, exit 2, no
+column the scene does not have or with a bad tolerance; a restart whose line_NAME.csv is missing, foreign
+or damaged. Each is one line ``error: <key>: ...``, exit 2, no
 traceback, the --out folder byte for byte as it was (in-process: the CLI's ``main``; the mesh is the 2 x 1
 channel of tests/data/user_scene, level 0: setup-time cases cost one mesh read)."""
 
@@ -113,3 +114,35 @@ def test_steady_scene_has_no_periodic_reference(main):
     code, err = main("run", "scene.yaml", "--out", main.out, "--overwrite", "--set", "time={scheme: steady}",
                      "--set", "reference={u_C: {mean: 1.0, tolerance: 0.1}}")
     assert code == 2 and err.startswith("error: reference.u_C: a steady scene has one state"), err
+
+
+@pytest.fixture(scope="module")
+def lined_run(tmp_path_factory):
+    """A finished 2-step run of the channel with a line (its checkpoint at step 2)."""
+    from faultlib import cli as run_cli
+
+    folder = tmp_path_factory.mktemp("lined")
+    shutil.copy(CHANNEL, folder / "channel.geo")
+    (folder / "scene.yaml").write_text(SCENE.replace("t_end: 0.1", "t_end: 0.2").replace(
+        "fields: false}", "fields: false, every: 1, checkpoint_every: 1}"))
+    result = run_cli("run", folder / "scene.yaml", "--out", folder / "run", "--no-progress")
+    assert result.returncode == 0, result
+    return folder
+
+
+@pytest.mark.parametrize("damage, expected", [
+    (lambda p: p.unlink(), "line_L.csv is missing"),
+    (lambda p: p.write_text("t,s,x,y,u,v\n"), "line_L.csv has other columns than this scene's line"),
+    (lambda p: p.write_text(p.read_text().replace("e-", "x-", 3)),
+     "line_L.csv: line 3 is not a row of 7 numbers (damaged file)"),
+], ids=["line_file_missing", "line_file_other_columns", "line_file_damaged"])
+def test_restart_checks_the_line_files(lined_run, tmp_path, damage, expected):
+    from faultlib import check, cli as run_cli
+
+    run = tmp_path / "run"
+    shutil.copytree(lined_run / "run", run)
+    damage(run / "line_L.csv")
+    before = snapshot(run)
+    result = run_cli("run", lined_run / "scene.yaml", "--restart", run, "--no-progress", "--set", "time.t_end=0.3")
+    check(result, 2, "error: --restart: ", expected)
+    assert snapshot(run) == before
