@@ -28,7 +28,7 @@ from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
-from ..io.profiles import check_profiles, open_profiles
+from ..io.profiles import check_profiles, open_profiles, write_profiles
 from ..mesh_report import log_solid_resolution
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
@@ -177,7 +177,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             with sim.timers("output"):
                 _write_fields(fields, sim)
         if steady or k % every == 0:
-            _write_profiles(profiles, observables, sim)
+            write_profiles(profiles, observables, sim)
         if k % every == 0 and getattr(sim.motion, "min_quality", None) is not None:
             log.info("t = %.6g: minimum cell quality %.4g (lowest so far %.4g)", sim.t, sim.motion.min_quality,
                      sim.motion.lowest_quality)
@@ -206,7 +206,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, sim)
             if not restart and not steady:
-                _write_profiles(profiles, observables, sim)
+                write_profiles(profiles, observables, sim)
             sim.run(n_steps, observers=[observe], after_step=[after_step])
             sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
         for writer in (series, *profiles.values()):
@@ -241,13 +241,6 @@ def _status_of(exc: BaseException) -> tuple[str, str]:
     if isinstance(exc, InternalError):
         return "failed", f"{exc.kind}: {exc}"
     return "failed", f"{type(exc).__name__}: {exc}"
-
-
-def _write_profiles(profiles: dict, observables, sim) -> None:
-    """One block per ``observables.lines`` profile (collective evaluation, rank 0 writes)."""
-    with sim.timers("observables"):
-        for name, values in observables.profiles().items():
-            profiles[name].write(sim.t, values)
 
 
 def _step_end(comm, stop, writers) -> int:

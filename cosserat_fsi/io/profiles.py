@@ -113,3 +113,11 @@ def check_profiles(run_dir: Path, lines: dict, t: float) -> None:
     """Rank 0, before a restart writes anything: every line file continues to the checkpoint's time ``t``."""
     for name, (columns, *_) in lines.items():
         check_profile(profile_path(run_dir, name), columns, t, "--restart: ")
+
+
+def write_profiles(profiles: dict, observables, sim) -> None:
+    """One block per ``observables.lines`` profile at the current state (collective evaluation, rank 0
+    writes)."""
+    with sim.timers("observables"):
+        for name, values in observables.profiles().items():
+            profiles[name].write(sim.t, values)
