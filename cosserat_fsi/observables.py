@@ -16,6 +16,7 @@ from .exact import EXACT_BENCHMARKS
 from .scheme.point_location import probe
 from .physics import materials
 from .physics.solid import elastic_energy_density
+from .errors import InputError
 from .tags import FLUID, SOLID
 
 import dolfinx
@@ -64,6 +65,8 @@ class Observables:
         self._points = self._solid_points = None
         if named is not None and named.points:
             self._points = (list(named.points), np.array([[*xy, 0.0] for xy in named.points.values()]))
+            for name, xy in named.points.items():
+                _inside(sim, f"observables.points.{name}", np.array([[*xy, 0.0]]))
             probed = ("u", "v", "p", "omega") if sim.model.micro_rotation else ("u", "v", "p")
             self.columns += [f"{c}_{name}" for name in named.points for c in probed]
         if named is not None and named.solid_points:
@@ -72,6 +75,12 @@ class Observables:
                                   named.solid_points}
             self._space_points = sim.velocity.function_space  # kept: after a remesh sim's is the new mesh's
             self.columns += [f"{c}_{name}" for name in named.solid_points for c in ("ux", "uy")]
+        self.lines = {}  # name -> (column names, arc lengths, points (N, 3))
+        for name, line in ((named.lines or {}).items() if named is not None else ()):
+            arc, xy = line.samples()
+            points = np.column_stack([xy, np.zeros(len(xy))])
+            _inside(sim, f"observables.lines.{name}", points)
+            self.lines[name] = (self._line_columns(), arc, points)
         self._energy_forms = None
         if sim.model.solid:
             dx = ufl.dx(domain=mesh, subdomain_data=sim.cell_tags)
@@ -104,6 +113,49 @@ class Observables:
         if scene.benchmark in EXACT_BENCHMARKS and sim.exact is not None:
             self._exact = _exact_error_forms(sim)
             self.columns += [f"{name}_error" for name in self._exact]
+
+    def _line_columns(self) -> list[str]:
+        dim = self.sim.mesh.geometry.dim
+        columns = ["s", *"xyz"[:dim], *"uvw"[:dim], "p"]
+        if self.sim.model.micro_rotation:
+            columns += ["omega"] if dim == 2 else ["omega_x", "omega_y", "omega_z"]
+        return columns
+
+    def profiles(self) -> dict:
+        """{line name: (N, columns) array} of the ``observables.lines`` at the current state. Collective."""
+        fields = [self.sim.velocity, self.sim.pressure] + ([self.sim.micro_rotation] if self.sim.model.micro_rotation
+                                                            else [])
+        dim = self.sim.mesh.geometry.dim
+        out = {}
+        for name, (_, arc, points) in self.lines.items():
+            values = probe(self.sim.locator, fields, points, self.comm)
+            out[name] = np.column_stack([arc, points[:, :dim], *values])
+        return out
+
+    def locations(self) -> list[str]:
+        """Where each named probe landed, for run.log: a point's cell (global index, fluid or solid); a solid
+        point's node (reference position, distance from the asked position). Collective."""
+        named = self.sim.scene.observables
+        out = []
+        if named is None:
+            return out
+        mesh, comm = self.sim.mesh, self.comm
+        for name, xy in named.points.items():
+            cell = int(self.sim.locator.locate(np.array([[*xy, 0.0]]), owned_only=True)[0])
+            imap = mesh.topology.index_map(mesh.topology.dim)
+            local = (imap.local_range[0] + cell, _cell_tag(self.sim, cell)) if cell >= 0 else (-1, "")
+            index, kind = max(comm.allgather(local))
+            out.append(f"probe {name} at ({xy[0]:.6g}, {xy[1]:.6g}): inside the mesh, {kind} cell {index}")
+        for name, node in (self._solid_points or {}).items():
+            x = self._space_points.tabulate_dof_coordinates()[node, :2] if node >= 0 else np.zeros(2)
+            x = comm.allreduce(x, op=MPI.SUM)
+            asked = np.asarray(named.solid_points[name], dtype=float)
+            out.append(f"solid point {name} asked at ({asked[0]:.6g}, {asked[1]:.6g}): solid node at "
+                       f"({x[0]:.6g}, {x[1]:.6g}), {np.linalg.norm(x - asked):.3g} from it")
+        for name, line in (named.lines or {}).items():
+            out.append(f"line {name}: {line.points} points from {tuple(line.start)} to {tuple(line.to)}, all inside "
+                       f"the mesh -> line_{name}.csv")
+        return out
 
     def point_A_now(self) -> np.ndarray | None:
         """The current position of point A (the node it was found at, on that mesh as it is now)."""
@@ -183,6 +235,24 @@ def _exact_error_forms(sim) -> dict:
         out[name] = (field, lambda t, formula=formula: (lambda x: formula(x, t)),
                      compat.form(ufl.inner(diff, diff) * ufl.dx), compat.form(ufl.inner(field, field) * ufl.dx))
     return out
+
+
+def _inside(sim, key: str, points: np.ndarray) -> None:
+    """InputError naming ``key`` if a point is in no cell of any rank (outside the mesh). Collective."""
+    found = (sim.locator.locate(points, owned_only=True) >= 0).astype(np.int64)
+    hits = sim.comm.allreduce(found, op=MPI.SUM)
+    if not hits.all():
+        x = points[int(np.argmin(hits))]
+        raise InputError(f"{key}: point ({x[0]:.6g}, {x[1]:.6g}) is outside the mesh")
+
+
+def _cell_tag(sim, cell: int) -> str:
+    """'fluid' or 'solid': the subdomain of a local cell."""
+    tags = sim.cell_tags
+    if tags is None:
+        return "fluid"
+    where = np.flatnonzero(tags.indices == cell)
+    return "solid" if len(where) and tags.values[where[0]] == SOLID else "fluid"
 
 
 def _point_A(sim):

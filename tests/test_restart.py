@@ -36,6 +36,26 @@ FSI_GA_CORRECTOR = {**FSI, "time": {**FSI_GA["time"], "corrector_passes": 1}}
 FSI_SVK = {**FSI_ALE, "solid": {"law": "saint_venant_kirchhoff", "rho": 1000.0, "mu_s": 5.0e5, "lambda_s": 2.0e6}}
 
 
+def run_keeping_checkpoint(scene, out: Path, comm, step: int) -> Path:
+    """Run ``scene`` into ``out`` and keep a copy of its checkpoint of ``step`` (a finished run's checkpoint
+    is of its last step): the folder ``out.parent / "checkpoint_STEP"``."""
+    import cosserat_fsi.app.runner as runner
+
+    original, kept = runner.write_checkpoint, out.parent / f"checkpoint_{step}"
+
+    def write_and_keep(run_dir, sim, comm, meta):
+        original(run_dir, sim, comm, meta)
+        if sim.step_count == step and comm.rank == 0:
+            shutil.copytree(Path(run_dir) / "checkpoint", kept)
+
+    runner.write_checkpoint = write_and_keep
+    try:
+        run_scene(scene, out, comm, progress=False)
+    finally:
+        runner.write_checkpoint = original
+    return kept
+
+
 @pytest.fixture
 def shared_tmp():
     comm = MPI.COMM_WORLD
@@ -66,9 +86,12 @@ def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
     if comm.rank == 0:
         full.mkdir()
     comm.barrier()
-    run_scene(scene, full, comm, progress=False)
+    n, every = round(scene.time.t_end / scene.time.dt), scene.output.checkpoint_every
+    kept = run_keeping_checkpoint(scene, full, comm, every * ((n - 1) // every))  # the last one before the end
     if comm.rank == 0:  # a copy "killed" after the last checkpoint: later rows and field steps half-written
         shutil.copytree(full, cut)
+        shutil.rmtree(cut / "checkpoint")
+        shutil.copytree(kept, cut / "checkpoint")
         meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
         lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
         (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
@@ -206,3 +229,23 @@ def test_kill_9_leaves_readable_output(run_cli, tmp_path, repo_root, delay):
         for k in range(len(times)):
             assert np.isfinite(f[f"mesh/geometry/{k:06d}"][:]).all()
             assert np.isfinite(f[f"point/velocity/{k:06d}"][:]).all()
+
+
+def test_a_finished_run_is_extended_from_its_last_step(run_cli, tmp_path):
+    """A finished run ends with a checkpoint of its last step: ``--restart`` with a later ``time.t_end``
+    computes only the new steps (2 of 5) and gives the 5-step run's time series to 1e-12."""
+    short, full = tmp_path / "short", tmp_path / "full"
+    config = _config(tmp_path, t_end=0.15)  # 3 steps
+    assert run_cli("run", config, "--out", short, "--no-progress").returncode == 0
+    meta = json.loads((short / "checkpoint" / "meta.json").read_text())
+    assert meta["step"] == meta["rows"] == 3
+    again = run_cli("run", config, "--restart", short, "--no-progress", "--set", "time.t_end=0.25")
+    assert again.returncode == 0, again.stderr
+    assert "restart from the checkpoint of step 3" in (short / "run.log").read_text()
+    summary = json.loads((short / "summary.json").read_text())
+    assert summary["time"]["steps"] == 5 and summary["status"] == "completed"
+    assert run_cli("run", _config(tmp_path, t_end=0.25), "--out", full, "--no-progress").returncode == 0
+    a, b = read_timeseries(full / "timeseries.csv"), read_timeseries(short / "timeseries.csv")
+    assert list(a) == list(b) and len(a["t"]) == len(b["t"]) == 5
+    for key in a:
+        assert np.abs(a[key] - b[key]).max() <= 1e-12 * max(np.abs(a[key]).max(), 1.0), key

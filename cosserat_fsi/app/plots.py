@@ -1,6 +1,7 @@
 """`cosserat-fsi plot RUN_DIR`: PNGs of a finished (or stopped) run.
 
-Time series from timeseries.csv (tip displacement, forces, energies, other observables), with the
+Time series from timeseries.csv (tip displacement, forces, energies, other observables; a file scene's
+named probes and solid points: :func:`own_groups`), with the
 reference band of the scene's benchmark when there is one, and pyvista off-screen snapshots of |u|, p
 and ω on the deformed mesh (the solid outlined) at chosen times, from fields.h5. Works on any rank
 count's output (the files are global) and needs no display.
@@ -38,6 +39,16 @@ GROUPS = {  # file stem -> (columns, y label)
     "energies": (("energy_kinetic", "energy_elastic", "energy_total"), "energy (J per m)"),
     "flow": (("dp", "flow_rate", "omega_max"), "value"),
 }
+
+
+def own_groups(series: dict) -> dict:
+    """A file scene's named observables (config ``observables``): probes.png (u_, v_, p_, omega_ NAME),
+    solid_points.png (ux_, uy_ NAME); its forces are in forces.png with the built-in scenes'."""
+    builtin = {c for columns, _ in GROUPS.values() for c in columns}
+    probes = tuple(c for c in series if c.startswith(("u_", "v_", "p_", "omega_")) and c not in builtin)
+    solid = tuple(c for c in series if c.startswith(("ux_", "uy_")) and c not in builtin)
+    out = {"probes": (probes, "probe values"), "solid_points": (solid, "displacement (m)")}
+    return {stem: group for stem, group in out.items() if group[0]}
 
 
 class Fields:
@@ -122,7 +133,7 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
         raise InputError(f"{run_dir / 'timeseries.csv'}: no time steps to plot")
     ref = _reference(run_dir)
     made = []
-    for stem, (columns, ylabel) in GROUPS.items():
+    for stem, (columns, ylabel) in {**GROUPS, **own_groups(series)}.items():
         present = [c for c in columns if c in series]
         if not present:
             continue

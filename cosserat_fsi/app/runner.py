@@ -3,8 +3,8 @@
 Above 350 lines because the error path around the loop lives here with it: the order of work (check,
 set up, commit, write), the shared end-of-step check, the summary that tells how the run ended.
 
-Writes into the output folder: config.yaml (resolved), timeseries.csv, fields.xdmf + fields.h5,
-summary.json (and run.log through the CLI's logging).
+Writes into the output folder: config.yaml (resolved), timeseries.csv, line_NAME.csv (``observables.lines``),
+fields.xdmf + fields.h5, summary.json (and run.log through the CLI's logging).
 """
 
 from __future__ import annotations
@@ -23,10 +23,13 @@ from mpi4py import MPI
 from .. import __version__, compat
 from ..analysis import relative_error
 from ..config import Scene, dump_resolved
+from ..config.scene import condition_lines
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
+from ..io.profiles import check_profiles, open_profiles, write_profiles
+from ..mesh_report import log_solid_resolution
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
@@ -35,7 +38,7 @@ from ..references import reference_for
 from ..simulation import Simulation
 from ..signals import signal_handlers
 from .stop_signals import StopSignals
-from .verdict import classify_signals
+from .verdict import check_reference, classify_signals, compare_with_scene_reference
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -67,7 +70,9 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
     output): the time series and fields after the checkpoint are dropped and rewritten; field steps
     before it are kept even if ``output.fields`` is now off. A checkpoint is written every
-    ``output.checkpoint_every`` steps and on SIGTERM/SIGINT, which then stop the run (:class:`Interrupted`).
+    ``output.checkpoint_every`` steps, at the last step (so ``--restart`` with a later ``time.t_end`` extends a
+    finished run without recomputing it; not with ``checkpoint_every: 0``) and on SIGTERM/SIGINT, which then
+    stop the run (:class:`Interrupted`).
 
     Order (docs/reliability.md): read and check the checkpoint and every file of the folder, build the
     mesh and the simulation, and only then ``commit()`` (rank 0: the CLI removes an overwritten run and
@@ -94,17 +99,22 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     observables = Observables(sim, np.asarray(meta["point_A"]) if remeshed and meta.get("point_A") else None,
                               meta.get("solid_points") if remeshed else None)
     signal_handlers(handlers)
+    check_reference(scene, observables.columns)
     if restart:
         agree(comm, sim.restore, state)
         if remeshed:
             sim.mesh_file, sim.remeshes = out_dir / meta["mesh"], list(meta.get("remeshes", []))
         on_root(comm, check_restart_files, out_dir, meta, scene.time.t_end, observables.columns,
                 scene.output.fields)
+        on_root(comm, check_profiles, out_dir, observables.lines, meta["t"])
+
+    micro = sim.model.micro_rotation
+    conditions = [] if sim.exact is not None else condition_lines(scene, sim.problem.conditions(), micro)
 
     def start():  # rank 0: from here on the folder is this run's
         if commit is not None:
             commit()
-        atomic_write_text(out_dir / "config.yaml", dump_resolved(scene))
+        atomic_write_text(out_dir / "config.yaml", dump_resolved(scene, conditions))
 
     on_root(comm, start, step="commit")
     if restart:
@@ -113,12 +123,17 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
              mesh.topology.index_map(mesh.topology.dim).size_global)
     log.info("model: %s", sim.model.describe())
     log.info("dofs: %s", sim.num_dofs())
+    log.info("boundaries:%s", "".join(f"\n  {c}" for c in conditions) or " the exact solution's (but the outlet)")
+    for line in observables.locations():  # where the probes landed; the solid's cells across
+        log.info("%s", line)
+    if sim.model.solid:
+        log_solid_resolution(sim.mesh, sim.cell_tags, comm)
     setup_time = time.perf_counter() - wall0
-
     steady = scene.time.scheme == "steady"
     n_steps = sim.steps_to(scene.time.t_end)  # steady: one "step", the Newton solve
     every = scene.output.every
     series = fields = bar = stop = None
+    profiles: dict = {}
     earlier_field_steps = meta["field_steps"] if restart else 0
     status, message = "completed", ""
     every_ck = scene.output.checkpoint_every
@@ -161,23 +176,26 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         if fields is not None and (steady or k % every == 0):
             with sim.timers("output"):
                 _write_fields(fields, sim)
+        if steady or k % every == 0:
+            write_profiles(profiles, observables, sim)
         if k % every == 0 and getattr(sim.motion, "min_quality", None) is not None:
             log.info("t = %.6g: minimum cell quality %.4g (lowest so far %.4g)", sim.t, sim.motion.min_quality,
                      sim.motion.lowest_quality)
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
-        signum = _step_end(comm, stop, series)
+        signum = _step_end(comm, stop, [series, *profiles.values()])
         if signum:
             checkpoint()
             raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
                               f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
-        if every_ck and k % every_ck == 0 and k < n_steps:
+        if every_ck and not steady and (k % every_ck == 0 or k == n_steps):  # the last step too: see run_scene
             checkpoint()
 
     try:
         series = TimeSeriesWriter(out_dir / "timeseries.csv", observables.columns, comm,
                                   keep_rows=meta["rows"] if restart else None)
+        profiles = open_profiles(out_dir, observables.lines, comm, meta["t"] if restart else None)
         if scene.output.fields:
             fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
                                     keep_steps=earlier_field_steps if restart and earlier_field_steps else None)
@@ -187,10 +205,13 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         with StopSignals() as stop:
             if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, sim)
+            if not restart and not steady:
+                write_profiles(profiles, observables, sim)
             sim.run(n_steps, observers=[observe], after_step=[after_step])
             sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
-        series.close()
-        share(comm, series.error)
+        for writer in (series, *profiles.values()):
+            writer.close()
+            share(comm, writer.error)
     except BaseException as exc:
         if comm.size > 1 and not (is_shared(exc) or isinstance(exc, DivergenceError)):
             status = "local"
@@ -202,6 +223,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             bar.close()
         if series is not None:
             series.close()
+        [writer.close() for writer in profiles.values()]
         if fields is not None:
             fields.close()
         if status != "local":
@@ -221,10 +243,10 @@ def _status_of(exc: BaseException) -> tuple[str, str]:
     return "failed", f"{type(exc).__name__}: {exc}"
 
 
-def _step_end(comm, stop, series) -> int:
+def _step_end(comm, stop, writers) -> int:
     """End of a step, on every rank: a failed row write (disk full) is raised everywhere; else the largest
     signal number any rank received (0: none)."""
-    error = series.error
+    error = next((w.error for w in writers if w.error is not None), None)
     if comm.size > 1:
         signum, failed = comm.allreduce((stop.signum, error is not None), op=MPI.MAX)
     else:
@@ -318,6 +340,8 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             summary["remeshes"] = {"count": len(sim.remeshes), "events": sim.remeshes}
         if scene.benchmark:
             summary["benchmark"] = compare_with_reference(scene, summary)
+        if scene.reference:
+            summary["reference"] = compare_with_scene_reference(scene.reference, summary)
         atomic_write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=_json))
         return summary
 

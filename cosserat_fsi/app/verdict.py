@@ -6,7 +6,9 @@ analysis, so noise on a steady signal is not reported as an oscillation.
 
 :func:`verdict_lines` turns a summary into the lines printed at the end of ``cosserat-fsi run``: for a
 benchmark scene a table (quantity, value, reference, error, tolerance, pass/fail), then the headline
-observables (final value, or mean ± amplitude [frequency]) and the wall time.
+observables (final value, or mean ± amplitude [frequency]; a file scene's named probes and solid points
+too) and the wall time. A scene's own ``reference`` section (config/sections.py ``Reference``) gets the same
+table under ``reference: PASS|FAIL``.
 
 ``TOLERANCES``: the relative tolerance of each benchmark quantity (the bands of campaigns/validate.py;
 periodic parts as ``"lift.amplitude"``). Quantities without one are shown but not judged.
@@ -100,6 +102,56 @@ def benchmark_rows(summary: dict) -> list[tuple]:
     return rows
 
 
+def check_reference(scene, columns: list[str]) -> None:
+    """InputError naming ``reference.NAME`` for a reference to a column the scene's time series lacks."""
+    from ..errors import InputError
+
+    for name in scene.reference or {}:
+        if name not in columns:
+            raise InputError(f"reference.{name}: not a column of this scene's timeseries.csv (it has: "
+                             f"{', '.join(columns)[:200]})")
+
+
+def compare_with_scene_reference(reference: dict, summary: dict) -> dict:
+    """summary.json's ``reference``: {label: {value, reference, error, tolerance, absolute, verdict}} for a
+    scene's own ``reference`` section; a periodic part of a column that is not periodic by the end FAILs."""
+    final, periodic, signals = summary.get("final", {}), summary.get("periodic", {}), summary.get("signals", {})
+    out = {}
+    for name, ref in reference.items():
+        for part, expected in ref.parts().items():
+            value = final.get(name) if part == "value" else (periodic.get(name) or {}).get(part)
+            label = name if part == "value" else f"{name}.{part}"
+            if part != "value" and name not in periodic:
+                label += f" ({signals.get(name, 'no value')})"
+            absolute = ref.abs_tolerance is not None
+            error = None if value is None else (value - expected if absolute else (value - expected) / abs(expected))
+            tol = ref.abs_tolerance if absolute else ref.tolerance
+            ok = error is not None and abs(error) <= tol
+            out[label] = {"value": value, "reference": expected, "error": error, "tolerance": tol,
+                          "absolute": absolute, "verdict": "pass" if ok else "FAIL"}
+    return out
+
+
+def reference_rows(summary: dict) -> list[tuple]:
+    """Rows (quantity, value, reference, error, tolerance, verdict) of summary.json's ``reference``."""
+    rows = []
+    for label, e in (summary.get("reference") or {}).items():
+        err, tol = e.get("error"), e["tolerance"]
+        if e.get("absolute"):
+            error_text, tol_text = ("–" if err is None else f"{err:+.3g}"), f"{tol:g}"
+        else:
+            error_text, tol_text = ("–" if err is None else f"{100 * err:+.3f} %"), f"{100 * tol:g} %"
+        rows.append((label, _num(e.get("value")), _num(e.get("reference")), error_text, tol_text, e["verdict"]))
+    return rows
+
+
+def _headline(final: dict) -> list[str]:
+    """The headline columns present: the built-in ones, then a file scene's named probes and solid points."""
+    own = [k for k in final if k not in HEADLINE and k.startswith(("u_", "v_", "p_", "omega_", "ux_", "uy_"))
+           and k != "omega_max"]
+    return [k for k in HEADLINE if k in final] + own
+
+
 def _table(header: tuple, rows: list[tuple]) -> list[str]:
     widths = [max(len(str(r[i])) for r in [header] + rows) for i in range(len(header))]
     fmt = "  ".join(f"{{:<{w}}}" for w in widths)
@@ -117,11 +169,14 @@ def verdict_lines(summary: dict) -> list[str]:
         lines.append(f"benchmark {bench}: " + (("PASS" if ok else "FAIL") + f" ({sum(r[5] == 'pass' for r in judged)}"
                                                  f"/{len(judged)} within tolerance)" if judged else "no tolerances"))
         lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), rows)
+    own = reference_rows(summary)
+    if own:
+        ok = sum(r[5] == "pass" for r in own)
+        lines.append(f"reference: {'PASS' if ok == len(own) else 'FAIL'} ({ok}/{len(own)} within tolerance)")
+        lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), own)
     final, periodic, signals = summary.get("final", {}), summary.get("periodic", {}), summary.get("signals", {})
     parts = []
-    for key in HEADLINE:
-        if key not in final:
-            continue
+    for key in _headline(final):
         a = periodic.get(key) if isinstance(periodic, dict) else None
         if a and a.get("frequency"):
             parts.append(f"{key} = {a['mean']:.6g} ± {a['amplitude']:.4g} [{a['frequency']:.4g} Hz]")

@@ -12,7 +12,8 @@ from cosserat_fsi.geometry import Geometry
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
 from .physics import Fluid, Inflow, Micropolar, Solid
-from .sections import BoundaryCondition, ObservableSet, Output, check_boundary_data, precheck_micro_values
+from .sections import (BoundaryCondition, ObservableSet, Output, Reference, check_boundary_data,
+                       precheck_micro_values)
 from .solver import Solver
 from .time import Time
 
@@ -29,6 +30,7 @@ class Scene(_Section):
     inflow: Inflow | None = None
     boundaries: dict[str, BoundaryCondition] | None = None
     observables: ObservableSet | None = None
+    reference: dict[str, Reference] | None = None
     time: Time
     solver: Solver = Field(default_factory=Solver)
     output: Output = Field(default_factory=Output)
@@ -74,6 +76,13 @@ class Scene(_Section):
                 raise ValueError(f"observables: only for geometry file (geometry {geo.name} has its own)")
             if self.observables.solid_points and self.solid is None:
                 raise ValueError("observables.solid_points: the scene has no solid section")
+        for name, ref in (self.reference or {}).items():
+            if not re.fullmatch(r"\w{1,100}", name):
+                raise ValueError(f"reference.{name[:40]}: not a time-series column name")
+            if time.scheme == "steady" and ref.value is None:
+                raise ValueError(f"reference.{name}: a steady scene has one state, no periodic parts (give value)")
+        if self.benchmark is not None and self.reference:
+            raise ValueError("reference: not with benchmark (a benchmark brings its own references)")
         if self.boundaries is not None:
             if geo.name != "file":
                 raise ValueError(f"boundaries: only for geometry file (geometry {geo.name} sets its own)")
@@ -161,6 +170,29 @@ class Scene(_Section):
         return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False, default_flow_style=False)
 
 
-def dump_resolved(scene: Scene) -> str:
-    """The fully resolved scene as YAML (same as ``scene.to_yaml()``)."""
-    return scene.to_yaml()
+def condition_lines(scene: Scene, conditions: dict, micro: bool) -> list[str]:
+    """One line per boundary, the condition it got: ``inlet: velocity ['4*y*(1 - y)', '0'], micro_rotation
+    free (given)`` (the micro-rotation part, and where it comes from, with micropolar terms only)."""
+    wall = scene.micropolar.wall_condition
+    out = []
+    for name, bc in conditions.items():
+        value = ("" if bc.value is None else f" {[str(v) for v in bc.value]}" if isinstance(bc.value, list)
+                 else f" {str(bc.value)!r}")
+        omega = bc.micro(wall)
+        if omega == "value":
+            omega = "= " + ", ".join(repr(e.text) for e in bc.micro_rotation.expressions())
+        source = ("given" if bc.micro_rotation is not None else
+                  "micropolar.wall_condition" if bc.type == "no_slip" else "the default off no-slip walls")
+        out.append(f"{name}: {bc.type}{value}" + (f", micro_rotation {omega} ({source})" if micro else ""))
+    return out
+
+
+def dump_resolved(scene: Scene, conditions: list[str] | None = None) -> str:
+    """The fully resolved scene as YAML (``scene.to_yaml()``); ``conditions``: the lines of
+    :func:`condition_lines`, appended as a comment block when the scene has no ``boundaries`` section (a
+    built-in geometry's preset, or a file scene's defaults by name), so that the file still loads as it is."""
+    text = scene.to_yaml()
+    if conditions and scene.boundaries is None:
+        text += ("# boundaries, as resolved from the geometry's preset (a comment: only a file scene takes a "
+                 "boundaries section):\n" + "".join(f"#   {line}\n" for line in conditions))
+    return text

@@ -25,11 +25,14 @@ FORMAT = 1
 
 
 def scene_fingerprint(scene) -> str:
-    """Hash of the scene without what a restart may change (t_end, output, name); a user's mesh file
-    counts by its content (and that of the files it includes), not by its path."""
+    """Hash of the scene without what a restart may change (t_end, output, name, reference); a user's mesh
+    file counts by its content (and that of the files it includes), not by its path."""
     data = scene.model_dump(mode="json")
     data.pop("output", None)
     data.pop("name", None)
+    data.pop("reference", None)
+    if isinstance(data.get("observables"), dict) and not data["observables"].get("lines"):
+        data["observables"].pop("lines", None)  # no profiles: the hash of a scene written before they existed
     data.get("time", {}).pop("t_end", None)
     if data.get("geometry", {}).get("name") == "file":  # the mesh file by content, not by where it is
         data["geometry"]["path"] = scene.geometry.content_digest()

@@ -13,7 +13,6 @@ type ``slip`` (Nitsche, Problem.slip) has no Dirichlet condition either; its fac
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 
 import numpy as np
@@ -27,7 +26,6 @@ from .problem import Problem
 
 import dolfinx
 
-log = logging.getLogger("cosserat_fsi")
 
 
 class BoundaryConditions:
@@ -72,14 +70,9 @@ class BoundaryConditions:
             if zero:
                 self._add("micro_rotation", zero)
             wall = self.problem.scene.micropolar.wall_condition
-            for name, bc in boundaries.items():
+            for name, bc in boundaries.items():  # (run.log lists every boundary's condition: scene.condition_lines)
                 if bc.micro(wall) == "value":
                     self._add("micro_rotation", (name,), expressions=bc.micro_rotation.expressions())
-                given = ("given" if bc.micro_rotation is not None else
-                         "micropolar.wall_condition" if bc.type == "no_slip" else "default off no-slip walls")
-                log.info("boundary %s (%s): micro-rotation %s (%s)", name, bc.type,
-                         bc.micro(wall) if bc.micro(wall) != "value" else
-                         "= " + ", ".join(e.text for e in bc.micro_rotation.expressions()), given)
 
     def _check_data(self, boundaries) -> None:
         """The expressions of ``boundaries`` finite at the start (exit 2 if not); the time-dependent ones

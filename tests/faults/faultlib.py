@@ -23,7 +23,8 @@ inflow: {u_mean: 1.0, ramp_time: 0.2}
 time: {scheme: characteristics1, dt: 0.05, t_end: 0.15}
 output: {every: 1, checkpoint_every: 2, progress: false}
 """
-"""3 steps, a checkpoint at step 2, every step's fields: the run every folder/restart case starts from."""
+"""3 steps, checkpoints at steps 2 and 3 (the last step's is the one kept), every step's fields: the run every
+folder/restart case starts from."""
 
 
 def env(**extra) -> dict:

@@ -80,7 +80,8 @@ def test_overwrite_replaces_only_once_set_up(tiny_config, run_copy):
     assert snapshot(run_copy) == before
     done = cli("run", tiny_config, "--out", run_copy, "--overwrite", "--no-progress", "--set", "time.t_end=0.1")
     assert done.returncode == 0, done
-    assert _status(run_copy) == "completed" and not (run_copy / "checkpoint").exists()
+    assert _status(run_copy) == "completed"  # the new run's checkpoint (its last step), not the old one's (3)
+    assert json.loads((run_copy / "checkpoint" / "meta.json").read_text())["step"] == 2
     assert len((run_copy / "timeseries.csv").read_text().splitlines()) == 3
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import fcntl
 import json
+import re
 import shutil
 import zipfile
 
@@ -38,9 +39,9 @@ DAMAGE = {  # what is done to the copy -> what the message must contain
     "meta_ranks_text": (lambda f: _meta(f, ranks="two"), "has a bad 'ranks'"),
     "meta_ranks_huge": (lambda f: _meta(f, ranks=10**9), "has a bad 'ranks'"),
     "meta_step_negative": (lambda f: _meta(f, step=-1, rows=-1), "has a bad 'step'"),
-    "meta_t_nan": (lambda f: (f / "checkpoint/meta.json").write_text(
-        (f / "checkpoint/meta.json").read_text().replace('"t": 0.1', '"t": NaN')), "has a bad 't'"),
-    "meta_rows_mismatch": (lambda f: _meta(f, rows=1), "has 1 rows for step 2"),
+    "meta_t_nan": (lambda f: (f / "checkpoint/meta.json").write_text(re.sub(
+        r'"t": [0-9.e+-]+', '"t": NaN', (f / "checkpoint/meta.json").read_text())), "has a bad 't'"),
+    "meta_rows_mismatch": (lambda f: _meta(f, rows=1), "has 1 rows for step 3"),
     "meta_format": (lambda f: _meta(f, format=99), "is not a cosserat-fsi checkpoint"),
     "no_checkpoint": (lambda f: shutil.rmtree(f / "checkpoint"), "has no checkpoint"),
     "rank_file_missing": (lambda f: (f / "checkpoint/rank0000.npz").unlink(), "cannot read"),
@@ -53,7 +54,7 @@ DAMAGE = {  # what is done to the copy -> what the message must contain
     "timeseries_missing": (lambda f: (f / "timeseries.csv").unlink(), "timeseries.csv is missing"),
     "timeseries_short": (lambda f: (f / "timeseries.csv").write_text(
         "".join((f / "timeseries.csv").read_text().splitlines(keepends=True)[:2])),
-        "has 1 rows, the checkpoint needs 2"),
+        "has 1 rows, the checkpoint needs 3"),
     "timeseries_damaged_row": (lambda f: (f / "timeseries.csv").write_text(
         (f / "timeseries.csv").read_text().replace("e-", "x-", 1)), "line 2 is not a row of"),
     "timeseries_foreign": (lambda f: (f / "timeseries.csv").write_text("a,b\n1,2\n"),
