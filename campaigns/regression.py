@@ -62,7 +62,7 @@ CASES = {
     "cosserat-fsi3-ga": ("configs/seed_cosserat_fsi3.yaml",
                          [o for o in _FAST_FLOW if not o.startswith("geometry.")] + _HARMONIC
                          + ["time.scheme=generalized_alpha"]),
-    # fsi3-c2 in two legs: to t = 0.05 (checkpoint at step 5), then --restart from step 5 to t = 0.1
+    # fsi3-c2 in two legs: to t = 0.05 (step 10: the last step's checkpoint), then --restart to t = 0.1
     "restart": ("configs/turek_hron_fsi3.yaml", _FSI3 + _CHARS + ["time.scheme=characteristics2"]),
     "np2": ("configs/turek_hron_fsi3.yaml", _FSI3 + _CHARS + ["time.scheme=characteristics2"]),
 }
@@ -101,7 +101,7 @@ def run_case(name: str, work: Path) -> Path:
     out = work / name
     if name == "restart":
         first = [s for s in sets if not s.startswith(("time.t_end", "output.checkpoint_every"))]
-        first += ["time.t_end=0.05", "output.checkpoint_every=5"]  # checkpoint at step 5 of 10
+        first += ["time.t_end=0.05", "output.checkpoint_every=5"]  # checkpoints at steps 5 and 10 (the last)
         _cli(config, first, out)
         _cli(config, sets, out, extra=["--restart", str(out)])
     else:

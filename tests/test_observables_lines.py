@@ -21,10 +21,12 @@ DATA = Path(__file__).parent / "data" / "user_scene"
 
 def _scene(folder: Path, extra: str = "", time: str = "{scheme: steady}") -> Path:
     path = folder / "scene.yaml"
+    micro = ", micro_rotation: free" if "micropolar" in extra else ""  # ω at the inflow: natural
     path.write_text(f"geometry: {{name: file, path: {DATA}/channel.geo}}\n"
                     "fluid: {rho: 1.0, mu: 1.0}\n"
                     f"time: {time}\n"
-                    "boundaries: {inlet: {type: velocity, value: ['4*y*(1 - y)', 0]}, outlet: {type: do_nothing},\n"
+                    f"boundaries: {{inlet: {{type: velocity, value: ['4*y*(1 - y)', 0]{micro}}}, "
+                    "outlet: {type: do_nothing},\n"
                     "             top: {type: no_slip}, bottom: {type: no_slip}}\n"
                     "observables: {points: {C: [1.0, 0.5]}, lines: {across: {from: [1.3, 0.0], to: [1.3, 1.0], "
                     "points: 11}}}\n"
