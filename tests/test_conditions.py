@@ -19,14 +19,19 @@ STRIP = Path(__file__).parent / "data" / "user_scene" / "strip.geo"
 MU, MU_R, LAMBDA1 = 1.0, 1.0, 0.5  # k = sqrt(4 μ μ_r / (λ₁ (μ + μ_r))) = 2
 
 
+def _scene_text(boundaries: str, time: str = "{scheme: steady}", micropolar: bool = True, level: int = 1,
+                extra: str = "") -> str:
+    return (f"geometry: {{name: file, path: {STRIP}, level: {level}}}\n"
+            f"fluid: {{rho: 1.0, mu: {MU}}}\n"
+            + (f"micropolar: {{mu_r: {MU_R}, lambda1: {LAMBDA1}}}\n" if micropolar else "")
+            + f"time: {time}\nboundaries: {boundaries}\n" + extra)
+
+
 def _scene(tmp_path, boundaries: str, time: str = "{scheme: steady}", micropolar: bool = True, level: int = 1):
     from cosserat_fsi.config import load_scene
 
     path = tmp_path / "scene.yaml"
-    path.write_text(f"geometry: {{name: file, path: {STRIP}, level: {level}}}\n"
-                    f"fluid: {{rho: 1.0, mu: {MU}}}\n"
-                    + (f"micropolar: {{mu_r: {MU_R}, lambda1: {LAMBDA1}}}\n" if micropolar else "")
-                    + f"time: {time}\nboundaries: {boundaries}\n")
+    path.write_text(_scene_text(boundaries, time, micropolar, level))
     return load_scene(path)
 
 
@@ -38,16 +43,20 @@ def _simulation(scene):
     return Simulation(scene, mesh, ct, ft, MPI.COMM_WORLD)
 
 
-def _profiles(scene, x=1.0, n=41):
-    """u (n, 2) and ω (n,) on the line x = const across the channel, after one steady solve."""
-    from cosserat_fsi.scheme.point_location import probe
-
-    sim = _simulation(scene)
-    sim.run(1)
-    y = np.linspace(0.0, 1.0, n)
-    u, omega = probe(sim.locator, [sim.velocity, sim.micro_rotation], np.column_stack([np.full(n, x), y]),
-                     MPI.COMM_WORLD)
-    return y, u, omega[:, 0]
+def _profiles(run_cli, tmp_path, boundaries: str, time: str = "{scheme: steady}", x=1.0, n=41):
+    """A run of the scene (``cosserat-fsi run``) with the line sampler across the channel at x = const
+    (``observables.lines``): y, u (n, 2), ω (n,) and p (n,) from its line_across.csv."""
+    path = tmp_path / "scene.yaml"
+    path.write_text(_scene_text(boundaries, time, extra=(
+        f"observables: {{lines: {{across: {{from: [{x}, 0.0], to: [{x}, 1.0], points: {n}}}}}}}\n"
+        "output: {progress: false, fields: false}\n")))
+    result = run_cli("run", path, "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    with open(tmp_path / "out" / "line_across.csv") as f:
+        header = f.readline().strip().split(",")
+    rows = np.loadtxt(tmp_path / "out" / "line_across.csv", delimiter=",", skiprows=1, ndmin=2)
+    column = {name: rows[:, i] for i, name in enumerate(header)}
+    return column["y"], np.column_stack([column["u"], column["v"]]), column["omega"], column["p"]
 
 
 def couette(y, U, a, b, mu=MU, mu_r=MU_R, lambda1=LAMBDA1, H=1.0):
@@ -82,39 +91,38 @@ def test_couette_closed_form_solves_its_equations():
     assert (u[0], u[-1], w[0], w[-1]) == pytest.approx((0.0, 1.0, 0.0, 0.3), abs=1e-12)
 
 
-def test_micropolar_couette_moving_wall(tmp_path):
+def test_micropolar_couette_moving_wall(run_cli, tmp_path):
     """Top wall moving at U = 1 with ω = 0.3 there ({value: EXPR}), bottom at rest with ω = 0; both ends
     natural (pressure 0 at the inlet, do-nothing outlet, ω free): the developed profile is exact there. P2 on
     level 1 (h = 0.04): u and ω within 1e-4 of the closed form (relative max error)."""
-    scene = _scene(tmp_path, "{top: {type: velocity, value: [1, 0], micro_rotation: {value: '0.1 + 0.2'}},"
-                             " bottom: {type: no_slip, micro_rotation: zero}, inlet: {type: pressure, value: 0},"
-                             " outlet: {type: do_nothing}}")
-    y, u, omega = _profiles(scene)
+    y, u, omega, _ = _profiles(run_cli, tmp_path,
+                               "{top: {type: velocity, value: [1, 0], micro_rotation: {value: '0.1 + 0.2'}},"
+                               " bottom: {type: no_slip, micro_rotation: zero}, inlet: {type: pressure, value: 0},"
+                               " outlet: {type: do_nothing}}")
     u_exact, w_exact = couette(y, 1.0, 0.0, 0.3)
     assert _relative(u[:, 0], u_exact) < 1e-4 and np.max(np.abs(u[:, 1])) < 1e-4
     assert _relative(omega, w_exact) < 1e-4
     assert omega[-1] == pytest.approx(0.3, abs=1e-12) and omega[0] == pytest.approx(0.0, abs=1e-12)
 
 
-def test_micropolar_poiseuille_between_pressures(tmp_path):
+def test_micropolar_poiseuille_between_pressures(run_cli, tmp_path):
     """Inlet ``pressure: 2``, outlet ``pressure: 0`` over the length 2 (G = 1), no-slip walls with ω = 0:
     micropolar Poiseuille flow (cosserat_fsi/exact.py, reference §1) to 1e-4 on level 1; p = p̂ at both ends
     (the do-nothing sense of the pressure condition with the laplacian form)."""
     from cosserat_fsi.exact import MicropolarPoiseuille
-    from cosserat_fsi.scheme.point_location import probe
 
-    scene = _scene(tmp_path, "{inlet: {type: pressure, value: 2}, outlet: {type: pressure, value: '0*t'},"
-                             " bottom: {type: no_slip, micro_rotation: zero}, top: {type: no_slip,"
-                             " micro_rotation: zero}}", time="{scheme: steady, steady_at: 0.0}")
-    y, u, omega = _profiles(scene, x=1.0)
+    walls = ("{inlet: {type: pressure, value: 2}, outlet: {type: pressure, value: '0*t'}, bottom: {type: no_slip,"
+             " micro_rotation: zero}, top: {type: no_slip, micro_rotation: zero}}")
+    steady = "{scheme: steady, steady_at: 0.0}"
+    y, u, omega, p = _profiles(run_cli, tmp_path, walls, steady, x=1.0)
     exact = MicropolarPoiseuille(1.0, 0.5, MU, MU_R, LAMBDA1, 2.0)
     u_exact, w_exact = exact.profiles(np.vstack([np.ones_like(y), y]))
     assert _relative(u[:, 0], u_exact) < 1e-4 and np.max(np.abs(u[:, 1])) < 1e-4
     assert _relative(omega, w_exact) < 1e-4
-    sim = _simulation(scene)
-    sim.run(1)
-    p = probe(sim.locator, [sim.pressure], np.array([[0.0, 0.5], [1.0, 0.5], [2.0, 0.5]]), MPI.COMM_WORLD)[0]
-    assert np.allclose(p[:, 0], [2.0, 1.0, 0.0], atol=1e-4)
+    assert np.allclose(p, 1.0, atol=1e-4)  # half way along: p = 1
+    for x, expected in ((0.0, 2.0), (2.0, 0.0)):  # the pressure condition's do-nothing sense: p = p̂ at the ends
+        (tmp_path / f"x{x}").mkdir()
+        assert np.allclose(_profiles(run_cli, tmp_path / f"x{x}", walls, steady, x=x, n=5)[3], expected, atol=1e-4)
 
 
 def test_grammar_functions_and_where():
@@ -191,15 +199,15 @@ def test_refused_at_validation(tmp_path, boundaries, message):
     assert str(info.value).startswith(message), str(info.value)
 
 
-def test_steady_at_evaluates_the_data_there(tmp_path):
+def test_steady_at_evaluates_the_data_there(run_cli, tmp_path):
     """min(t, 1)·p̂ with steady_at 0.5: half the pressure drop of t = 1, half the flow."""
     from cosserat_fsi.scheme.steady import steady_time
 
     walls = "bottom: {type: no_slip, micro_rotation: zero}, top: {type: no_slip, micro_rotation: zero}"
-    scene = _scene(tmp_path, "{inlet: {type: pressure, value: '4*min(t, 1)'}, outlet: {type: do_nothing}, "
-                             + walls + "}", time="{scheme: steady, steady_at: 0.5}", level=0)
-    assert steady_time(scene) == 0.5
-    y, u, _ = _profiles(scene, n=3)
+    boundaries = "{inlet: {type: pressure, value: '4*min(t, 1)'}, outlet: {type: do_nothing}, " + walls + "}"
+    time = "{scheme: steady, steady_at: 0.5}"
+    assert steady_time(_scene(tmp_path, boundaries, time=time, level=0)) == 0.5
+    y, u, _, _ = _profiles(run_cli, tmp_path, boundaries, time, n=3)
     exact = MicropolarPoiseuilleAt(G=1.0)
     assert u[1, 0] == pytest.approx(exact, rel=2e-3)
 
