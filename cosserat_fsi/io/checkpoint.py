@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..files import open_regular
 from ..safe_yaml import read_text_file
 
 FORMAT = 1
@@ -123,8 +124,10 @@ def read_checkpoint(run_dir: Path, comm, fingerprint: str) -> tuple[dict, list]:
     for rank in range(meta["ranks"]):
         path = folder / f"rank{rank:04d}.npz"
         try:
-            with np.load(path, allow_pickle=False) as data:
+            with open_regular(path, "checkpoint file", "--restart: ") as f, np.load(f, allow_pickle=False) as data:
                 states.append({k: data[k] for k in data.files})
+        except InputError:
+            raise
         except Exception as exc:  # noqa: BLE001 (zip, pickle, value errors: a damaged file)
             raise InputError(f"--restart: cannot read {path} ({exc.__class__.__name__})") from None
     _check_states(states, meta, folder)

@@ -94,6 +94,9 @@ def _boundary_loops(edges: np.ndarray) -> list[list[int]]:
 def _mesh_on_root(ids, coords, sizes, cells, cell_tag, facets, facet_tag, facet_ids, path: Path) -> None:
     import gmsh
 
+    from ..files import refuse_link
+
+    refuse_link(path, "")  # gmsh.write follows links: never write out of the run folder through one
     order = np.argsort(ids)  # every node once (owned by one rank)
     ids, coords, sizes = ids[order], coords[order], sizes[order]
     where = {int(i): k for k, i in enumerate(ids)}
