@@ -25,14 +25,16 @@ ALWAYS = ("System", "SystemCall", "NonBlockingSystemCall", "OnelabRun", "SendToS
 READS = ("Include", "Merge", "ShapeFromFile")
 """Commands that read a file: a literal name inside the .geo's folder is allowed."""
 MAX_INCLUDES = 100
-_TOKEN = re.compile(r'//[^\n]*|/\*.*?(?:\*/|\Z)|"(?:\\.|[^"\\])*(?:"|\Z)|[A-Za-z_][A-Za-z_0-9]*|\S', re.S)
+_STRINGS = (r'"[^"]*(?:"|\Z)', r'"(?:\\.|[^"\\])*(?:"|\Z)')  # gmsh 4.8: no escapes; later ones: \"
+_TOKENS = [re.compile(r'//[^\n]*|/\*.*?(?:\*/|\Z)|' + string + r'|[A-Za-z_][A-Za-z_0-9]*|\S', re.S)
+           for string in _STRINGS]
 
 
-def _tokens(text: str):
+def _tokens(text: str, token: re.Pattern):
     """(kind, value, line) of the script: ``id``, ``str`` (its content), ``sym``; comments dropped."""
     line = 1
     pos = 0
-    for m in _TOKEN.finditer(text):
+    for m in token.finditer(text):
         line += text.count("\n", pos, m.start())
         pos = m.start()
         tok = m.group()
@@ -74,7 +76,11 @@ def scan_geo(path: str | os.PathLike, _root: Path | None = None, _seen: set | No
         raise InputError(f"{path}: includes more than {MAX_INCLUDES} files")
     data = read_regular(path, "gmsh .geo file", max_bytes=16 << 20)
     text = data.decode("utf-8", "replace")
-    toks = list(_tokens(text))
+    for token in _TOKENS:  # read as either gmsh reads strings (with or without \" escapes)
+        _scan(path, list(_tokens(text, token)), root, seen)
+
+
+def _scan(path: Path, toks: list, root: Path, seen: set) -> None:
     for i, (kind, value, line) in enumerate(toks):
         if kind != "id":
             continue
