@@ -58,6 +58,9 @@ def remesh_msh(mesh, cell_tags, facet_tags, sizes: np.ndarray, facet_ids: dict[s
         except Exception as exc:  # noqa: BLE001 (shared below: every rank raises)
             error = f"{type(exc).__name__}: {exc}"
     error = comm.bcast(error, root=0)
+    from ..parallel import failpoint
+
+    failpoint("remesh")  # the fault suite: a signal right after gmsh had the process
     if error is not None:
         from ..errors import DivergenceError
 

@@ -5,6 +5,7 @@ mixed cell types and paths too long are one line (docs/reliability.md, "Scene fi
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -210,3 +211,29 @@ def test_path_too_long(tiny_config, tmp_path, where):
     before = snapshot(tmp_path)
     check(cli("run", *args, "--no-progress"), 2, "error:", "file name too long")
     assert snapshot(tmp_path) == before
+
+
+# ------------------------------------------------------------------ 3. a checkpoint on a signal after a remesh
+REMESH = """geometry: {name: turek_hron, level: 0, flag: solid}
+fluid: {rho: 1000.0, mu: 1.0}
+solid: {rho: 1000.0, mu_s: 5e5, mesh_motion: {remesh: {quality: 0.99, max_count: 1}}}
+inflow: {u_mean: 0.2}
+time: {dt: 0.01, t_end: 0.05, scheme: characteristics2}
+output: {every: 1, checkpoint_every: 100, progress: false}
+"""  # remeshed at step 1 (the quality is below 0.99 at once); no checkpoint of its own before the end
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("failpoint, code", [("remesh@0:sigterm", 143), ("timeseries.write@0:sigterm:3", 143),
+                                             ("timeseries.write@0:sigint:3", 130)],
+                         ids=["sigterm_right_after_gmsh", "sigterm_steps_later", "sigint_steps_later"])
+def test_signal_after_a_remesh_writes_a_checkpoint(tmp_path, failpoint, code):
+    """gmsh (in the run's process for a remesh) takes the signal handlers; the time loop's are put back."""
+    scene = tmp_path / "remesh.yaml"
+    scene.write_text(REMESH)
+    out = tmp_path / "out"
+    result = _run(scene, out, tmp_path, COSSERAT_FSI_FAILPOINT=failpoint)
+    check(result, code, "interrupted: signal", "checkpoint written")
+    meta = json.loads((out / "checkpoint" / "meta.json").read_text())
+    assert meta["mesh"] == "meshes/remesh_001.msh" and (out / "checkpoint" / "rank0000.npz").is_file()
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
