@@ -87,3 +87,18 @@ def refuse_link_dir(path: str | os.PathLike, prefix: str = "--out: ") -> None:
         raise InputError(f"{prefix}{path} is a link (nothing is written through a link; move it away)")
     if not stat.S_ISDIR(mode):
         raise InputError(f"{prefix}{path} is not a folder (move it away)")
+
+
+FREE_MARGIN = 1 << 20
+"""Bytes kept free beyond a write's own size (HDF5's metadata, the .xdmf and summary.json rewritten)."""
+
+
+def check_free_space(path: str | os.PathLike, nbytes: int) -> None:
+    """``OSError(ENOSPC)`` naming ``path`` if its file system has less than ``2 * nbytes + FREE_MARGIN``
+    bytes free: checked before handing a write to a library (HDF5) that does not survive a full disk."""
+    try:
+        st = os.statvfs(Path(path).parent)
+    except OSError:
+        return
+    if st.f_bavail * st.f_frsize < 2 * nbytes + FREE_MARGIN:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))

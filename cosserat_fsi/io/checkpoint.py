@@ -10,6 +10,7 @@ and ``output`` (checked by hash).
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import math
 import os
@@ -55,8 +56,10 @@ def write_checkpoint(run_dir: Path, sim, comm, meta: dict) -> None:
         path = tmp / f"rank{comm.rank:04d}.npz"
         try:
             failpoint("checkpoint.rank")
+            data = io.BytesIO()  # the archive is made in memory: a full disk fails the write below only
+            np.savez(data, **sim.checkpoint())
             with open(path, "wb") as f:
-                np.savez(f, **sim.checkpoint())
+                f.write(data.getbuffer())
                 f.flush()
                 os.fsync(f.fileno())
         except OSError as exc:
