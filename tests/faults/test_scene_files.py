@@ -9,6 +9,7 @@ import json
 import os
 from pathlib import Path
 
+import h5py
 import pytest
 
 from faultlib import check, cli, snapshot
@@ -237,3 +238,63 @@ def test_signal_after_a_remesh_writes_a_checkpoint(tmp_path, failpoint, code):
     meta = json.loads((out / "checkpoint" / "meta.json").read_text())
     assert meta["mesh"] == "meshes/remesh_001.msh" and (out / "checkpoint" / "rank0000.npz").is_file()
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+
+
+# ------------------------------------------------------------------ 4. Ctrl-C at start-up, a full disk
+HOOK = """import sys
+
+
+class _CtrlC:  # Ctrl-C while {name} is imported
+    def find_spec(self, name, path=None, target=None):
+        if name == "{name}":
+            raise KeyboardInterrupt
+
+
+sys.meta_path.insert(0, _CtrlC())
+"""
+
+
+@pytest.mark.parametrize("module", ["pydantic", "dolfinx", "ffcx"])
+def test_ctrl_c_while_importing(tiny_config, tmp_path, module):
+    """Ctrl-C while the libraries load (an import hook raises KeyboardInterrupt as SIGINT would)."""
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(HOOK.format(name=module))
+    out = tmp_path / "out"
+    result = cli("run", tiny_config, "--out", out, "--no-progress",
+                 PYTHONPATH=os.pathsep.join([str(hook), str(Path(__file__).resolve().parents[2])]))
+    check(result, 130, "interrupted: Ctrl-C (SIGINT)")
+    assert not out.exists()
+
+
+def test_free_space_is_checked_before_hdf5(tmp_path):
+    from cosserat_fsi.files import check_free_space
+
+    check_free_space(tmp_path / "fields.h5", 1000)
+    with pytest.raises(OSError) as caught:
+        check_free_space(tmp_path / "fields.h5", 1 << 62)
+    assert caught.value.errno == 28 and caught.value.filename == str(tmp_path / "fields.h5")
+
+
+@pytest.mark.slow
+def test_a_disk_that_really_fills(tiny_config, tmp_path):
+    """A 2 MB tmpfs (root only; skipped elsewhere): fields.h5 fills it: exit 2 naming it, no crash, the
+    steps written before listed in fields.xdmf, summary.json ``failed``."""
+    import subprocess
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2M", "tmpfs", str(disk)],
+                                           capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here")
+    try:
+        out = disk / "run"
+        result = cli("run", tiny_config, "--out", out, "--no-progress", "--set", "time.t_end=4.0",
+                     "--set", "output.checkpoint_every=1000")
+        check(result, 2, f"error: {out / 'fields.h5'}: cannot write (No space left on device)")
+        assert json.loads((out / "summary.json").read_text())["status"] == "failed"
+        steps = (out / "fields.xdmf").read_text().count("<Time ")
+        with h5py.File(out / "fields.h5", "r") as f:  # every listed step is readable
+            assert steps >= 2 and len(f["point/velocity"]) >= steps
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
