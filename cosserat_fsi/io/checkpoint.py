@@ -127,10 +127,12 @@ def read_checkpoint(run_dir: Path, comm, fingerprint: str) -> tuple[dict, list]:
     for rank in range(meta["ranks"]):
         path = folder / f"rank{rank:04d}.npz"
         try:
-            with open_regular(path, "checkpoint file", "--restart: ") as f, np.load(f, allow_pickle=False) as data:
+            f = open_regular(path, "checkpoint file")  # a FIFO would block: refused without reading
+        except InputError as exc:
+            raise InputError(f"--restart: cannot read {path} ({str(exc).rsplit(': ', 1)[-1]})") from None
+        try:
+            with f, np.load(f, allow_pickle=False) as data:
                 states.append({k: data[k] for k in data.files})
-        except InputError:
-            raise
         except Exception as exc:  # noqa: BLE001 (zip, pickle, value errors: a damaged file)
             raise InputError(f"--restart: cannot read {path} ({exc.__class__.__name__})") from None
     _check_states(states, meta, folder)

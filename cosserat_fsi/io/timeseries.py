@@ -111,6 +111,8 @@ def _parse(path: Path, prefix: str = "") -> tuple[list[str], list[bytes], int]:
 
     if not os.path.lexists(path):
         raise InputError(f"{prefix}{path} is missing")
+    if os.path.isdir(path):
+        raise InputError(f"{prefix}{path} is a folder, not a time series")
     data = read_regular(path, "time series", prefix)  # a FIFO or a folder: refused without blocking
     end = data.find(b"\n")
     head = data[:end] if end >= 0 else b""
