@@ -206,7 +206,10 @@ class RunFolder:
         moved = []
         try:
             trash.mkdir()
+            from ..parallel import failpoint
+
             for name in names:
+                failpoint("overwrite")  # the fault suite: a rename that fails half-way
                 os.rename(self.path / name, trash / name)  # not truncated: a reader of fields.h5 keeps it
                 moved.append(name)
         except OSError as exc:

@@ -298,3 +298,14 @@ def test_a_disk_that_really_fills(tiny_config, tmp_path):
             assert steps >= 2 and len(f["point/velocity"]) >= steps
     finally:
         subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+@pytest.mark.parametrize("hit", [1, 3])
+def test_overwrite_failing_half_way_keeps_the_old_run(tiny_config, run_copy, hit):
+    """The earlier run's files are moved aside one by one at the commit; a move that fails puts back those
+    already moved: the old run is whole."""
+    before = snapshot(run_copy)
+    result = cli("run", tiny_config, "--out", run_copy, "--overwrite", "--no-progress",
+                 COSSERAT_FSI_FAILPOINT=f"overwrite@0:enospc:{hit}")
+    check(result, 2, "error:", "No space left on device")
+    assert snapshot(run_copy) == before
