@@ -12,6 +12,10 @@ freely and keep the file's ids. In the cached mesh the cells are renumbered to t
 solid 2 (tags.py) and, when there are solid cells, the fluid–solid interface is found from the cells and
 added as the facet group ``interface`` (a group of that name in the file must be exactly those facets).
 The name -> id table of the facets is written next to the mesh (``<mesh>.names.json``; :func:`facet_ids`).
+
+A ``.geo`` builds a model and nothing else: commands that run programs, write files or read files outside
+its folder are refused naming the file and line (geo_scan.py) unless ``trusted: true``; a ``.msh`` with
+triangles and quadrilaterals together is refused (one cell type per mesh).
 """
 
 from __future__ import annotations
