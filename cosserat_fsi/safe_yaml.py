@@ -145,18 +145,10 @@ def yaml_load(text: str) -> Any:
 
 def read_text_file(path: str | Path, what: str = "file", max_bytes: int = MAX_BYTES) -> str:
     """UTF-8 text of a small file; InputError naming it if missing, a folder, too large, binary or not UTF-8."""
+    from .files import read_regular
+
     path = Path(path)
-    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO would block, a device not end
-        raise InputError(f"{path}: not a regular file (not a {what})")
-    try:
-        with open(path, "rb") as f:
-            data = f.read(max_bytes + 1)
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder, not a {what}") from None
-    except OSError as exc:
-        raise InputError(f"{path}: could not read ({exc.strerror or exc.__class__.__name__})") from None
+    data = read_regular(path, what, max_bytes=max_bytes)  # a FIFO would block, a device not end: refused
     if len(data) > max_bytes:
         raise InputError(f"{path}: larger than {max_bytes // 1024} KiB (not a {what}?)")
     if b"\0" in data:

@@ -130,7 +130,11 @@ def write_traceback(exc: BaseException, context: Context) -> str:
 
 def report(exc: BaseException, context: Context) -> int:
     """Print the one line for ``exc`` and return its exit code (or end every rank with MPI_Abort)."""
-    if isinstance(exc, OSError) and exc.errno in WRITE_ERRNOS:
+    if isinstance(exc, OSError) and exc.errno == errno.ENAMETOOLONG:  # a path the file system cannot hold
+        shared = getattr(exc, "shared", False)
+        exc = InputError(f"{exc.filename or 'a path'}: file name too long")
+        exc.shared = shared
+    elif isinstance(exc, OSError) and exc.errno in WRITE_ERRNOS:
         shared = getattr(exc, "shared", False)
         exc = OutputError(f"{exc.filename or 'output'}: cannot write ({exc.strerror})")
         exc.shared = shared

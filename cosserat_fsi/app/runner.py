@@ -153,7 +153,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
 
     def remeshed_to(sim, record):  # a new mesh: observables on it, a new topology in the fields
         nonlocal observables, point_A_on_mesh, solid_points_on_mesh
-        signal_handlers(handlers)
+        stop.reinstall()  # the time loop's handlers (a checkpoint on a signal), not the start-up ones
         point_A = observables.point_A_now()
         point_A_on_mesh = None if point_A is None else point_A.tolist()
         solid_points_on_mesh = observables.solid_points_now()
@@ -187,8 +187,10 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         signum = _step_end(comm, stop, [series, *profiles.values()])
         if signum:
             checkpoint()
-            raise Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
-                              f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
+            stopped = Interrupted(f"signal {signum} at step {k} (t = {sim.t:.6g}): checkpoint written; resume "
+                                  f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
+            stopped.shared = True  # every rank stops here (the signal is shared by _step_end): one summary
+            raise stopped
         if every_ck and not steady and (k % every_ck == 0 or k == n_steps):  # the last step too: see run_scene
             checkpoint()
 

@@ -30,6 +30,12 @@ class StopSignals:
                 self._old[sig] = signal.signal(sig, self._handler)
         return self
 
+    def reinstall(self):
+        """Install the handlers again where a library (gmsh, PETSc, while remeshing) replaced them."""
+        if self._old:
+            for sig in self.SIGNALS:
+                signal.signal(sig, self._handler)
+
     def __exit__(self, *exc):
         for sig, old in self._old.items():
             signal.signal(sig, old)

@@ -179,9 +179,20 @@ def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
 
     drop = ("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPI_LOCALRANKID", "MPI_LOCALNRANKS")
     env = {k: v for k, v in os.environ.items() if not k.startswith(drop)}
-    request = json.dumps({"name": name, "level": level, "params": full, "out": str(tmp)})
-    proc = subprocess.Popen([sys.executable, "-m", "cosserat_fsi.geometry", request], env=env,
-                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    import tempfile
+
+    package_root = str(pathlib.Path(__file__).resolve().parents[2])  # the child runs in a folder of its own
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH")) if p)
+    request = json.dumps({"name": name, "level": level, "params": full, "out": os.path.abspath(tmp)})
+    with tempfile.TemporaryDirectory(prefix="cosserat-fsi-gmsh-") as cwd:  # what a .geo writes stays there
+        _wait_gmsh(subprocess.Popen([sys.executable, "-m", "cosserat_fsi.geometry", request], env=env, cwd=cwd,
+                                    stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT),
+                   name, level, full, tmp)
+
+
+def _wait_gmsh(proc, name, level, full, tmp: pathlib.Path) -> None:
+    import subprocess
+
     limit = _gmsh_timeout()
     try:
         output, _ = proc.communicate(timeout=limit)

@@ -15,6 +15,10 @@ Every boundary facet (an edge of exactly one cell) must be in exactly one facet 
 the group ``default`` (reserved), whose condition the scene must give (``boundaries.default``). One physical name
 per group, one group per facet (else _Refused, one line).
 The name -> id table of the facets is written next to the mesh (``<mesh>.names.json``; :func:`facet_ids`).
+
+A ``.geo`` builds a model and nothing else: commands that run programs, write files or read files outside
+its folder are refused naming the file and line (geo_scan.py) unless ``trusted: true``; a ``.msh`` with
+triangles and quadrilaterals together is refused (one cell type per mesh).
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ from pydantic import Field, field_validator, model_validator
 
 from pydantic import BaseModel, ConfigDict
 
+from ..errors import InputError
+from ..files import read_regular
 from ._model import MAX_LEVEL, GeometryBase
 
 SUFFIXES = (".geo", ".msh")
@@ -52,6 +58,8 @@ class FileGeometry(GeometryBase):
     name: Literal["file"] = "file"
     path: str
     cells: CellNames = Field(default_factory=CellNames)
+    trusted: bool = False
+    """``true``: the .geo may run programs and reach files outside its folder (geo_scan.py; refused else)."""
 
     @field_validator("level", mode="before")
     @classmethod
@@ -67,13 +75,12 @@ class FileGeometry(GeometryBase):
         path = pathlib.Path(value)
         if path.suffix.lower() not in SUFFIXES:
             raise ValueError(f"must be a gmsh .geo or .msh file (got {value!r})")
-        if not path.is_file():
+        if not path.exists():
             raise ValueError(f"no such file: {value}")
         try:
-            with open(path, "rb") as f:
-                head = f.read(64)
-        except OSError as exc:
-            raise ValueError(f"cannot read {value} ({exc.strerror or exc})") from None
+            head = read_regular(path, f"gmsh {path.suffix.lower()} file", max_bytes=63)
+        except InputError as exc:  # a FIFO, a device, a folder: refused without reading (no hang)
+            raise ValueError(str(exc)) from None
         if path.suffix.lower() == ".msh" and not head.lstrip().startswith(b"$MeshFormat"):
             raise ValueError(f"not a gmsh mesh file (no $MeshFormat at its start): {value}")
         if path.suffix.lower() == ".geo" and b"\0" in head:
@@ -82,6 +89,10 @@ class FileGeometry(GeometryBase):
 
     @model_validator(mode="after")
     def _groups(self):
+        if self.path.lower().endswith(".geo") and not self.trusted:
+            from .geo_scan import scan_geo
+
+            scan_geo(self.path)  # InputError "<file>:<line>: gmsh command X is not allowed in a scene"
         both = set(self.cells.fluid) & set(self.cells.solid)
         if both:
             raise ValueError(f"geometry.cells: {sorted(both)[0]!r} is both fluid and solid")
@@ -107,21 +118,16 @@ _INCLUDE = re.compile(rb'\b(?:Include|Merge)\s*"([^"]+)"')
 
 def content_digest(path: str | os.PathLike) -> str:
     """sha256 over ``path`` and the files it Includes/Merges (a missing one counts by its name)."""
-    from ..errors import InputError
-
     digest, seen, todo = hashlib.sha256(), set(), [pathlib.Path(path).resolve()]
     while todo:
         file = todo.pop(0)
         if file in seen:
             continue
         seen.add(file)
-        try:
-            data = file.read_bytes()
-        except FileNotFoundError:
+        if not file.exists():
             digest.update(b"missing:" + file.name.encode())
             continue
-        except OSError as exc:
-            raise InputError(f"geometry.path: cannot read {file} ({exc.strerror or exc})") from None
+        data = read_regular(file, "gmsh file", "geometry.path: ")  # never blocks on a FIFO
         digest.update(hashlib.sha256(data).digest())
         if file.suffix.lower() == ".geo":
             todo += [(file.parent / os.fsdecode(m)).resolve() for m in _INCLUDE.findall(data)]
@@ -257,6 +263,8 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     def entities(tags):
         return sorted({int(e) for t in tags for e in gmsh.model.getEntitiesForPhysicalGroup(2, t)})
 
+    kinds = set()
+
     def edges(ents):
         found = []
         for e in ents:
@@ -266,6 +274,7 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
                     raise _Refused(f"geometry.path: {shown} has {gmsh.model.mesh.getElementProperties(etype)[0]} "
                                    "elements; only first-order triangles and quadrangles are supported")
                 k = 3 if etype == 2 else 4
+                kinds.add(k)
                 cells = np.asarray(enodes, dtype=np.int64).reshape(-1, k)
                 found += [np.sort(np.stack([cells[:, i], cells[:, (i + 1) % k]], axis=1), axis=1) for i in range(k)]
         return np.unique(np.concatenate(found), axis=0) if found else np.zeros((0, 2), dtype=np.int64)
@@ -276,6 +285,8 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
                        "a fluid and a solid group")
     interface = np.zeros((0, 2), dtype=np.int64)
     f_edges, s_edges = edges(fluid_ents), edges(solid_ents)  # (also refuses elements other than P1)
+    if len(kinds) > 1:  # dolfinx reads one cell type per mesh
+        raise _Refused(f"{path}: mixed cell types (triangle and quadrilateral) are not supported")
     if fluid_ents and solid_ents:
         both = np.concatenate([f_edges, s_edges])
         uniq, counts = np.unique(both, axis=0, return_counts=True)

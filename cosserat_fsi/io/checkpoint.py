@@ -10,6 +10,7 @@ and ``output`` (checked by hash).
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import math
 import os
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..files import open_regular
 from ..safe_yaml import read_text_file
 
 FORMAT = 1
@@ -60,8 +62,10 @@ def write_checkpoint(run_dir: Path, sim, comm, meta: dict) -> None:
         path = tmp / f"rank{comm.rank:04d}.npz"
         try:
             failpoint("checkpoint.rank")
+            data = io.BytesIO()  # the archive is made in memory: a full disk fails the write below only
+            np.savez(data, **sim.checkpoint())
             with open(path, "wb") as f:
-                np.savez(f, **sim.checkpoint())
+                f.write(data.getbuffer())
                 f.flush()
                 os.fsync(f.fileno())
         except OSError as exc:
@@ -129,7 +133,11 @@ def read_checkpoint(run_dir: Path, comm, fingerprint: str) -> tuple[dict, list]:
     for rank in range(meta["ranks"]):
         path = folder / f"rank{rank:04d}.npz"
         try:
-            with np.load(path, allow_pickle=False) as data:
+            f = open_regular(path, "checkpoint file")  # a FIFO would block: refused without reading
+        except InputError as exc:
+            raise InputError(f"--restart: cannot read {path} ({str(exc).rsplit(': ', 1)[-1]})") from None
+        try:
+            with f, np.load(f, allow_pickle=False) as data:
                 states.append({k: data[k] for k in data.files})
         except Exception as exc:  # noqa: BLE001 (zip, pickle, value errors: a damaged file)
             raise InputError(f"--restart: cannot read {path} ({exc.__class__.__name__})") from None

@@ -26,10 +26,12 @@ import logging
 import os
 import shutil
 import socket
+import stat
 import tempfile
 from pathlib import Path
 
 from ..errors import InputError, OutputError
+from ..files import refuse_link, refuse_link_dir
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -121,9 +123,13 @@ class RunFolder:
     def _lock(self) -> None:
         lock = self.path / LOCK_NAME
         for _ in range(10):  # the file may be replaced between open and flock by a run that ends
+            refuse_link(lock)  # never open the lock through a link (O_NOFOLLOW below closes the race)
             try:
-                fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+                fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o644)
             except OSError as exc:
+                if exc.errno == errno.ELOOP:
+                    raise InputError(f"--out: {lock} is a link (nothing is written through a link; move it "
+                                     "away)") from None
                 raise InputError(f"--out: cannot create {lock} ({exc.strerror or exc})") from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -136,6 +142,9 @@ class RunFolder:
                     raise InputError(f"--out: {self.path} is in use by {who}{host} (a run is writing "
                                      "there; wait for it to end or choose another --out)") from None
                 raise InputError(f"--out: cannot lock {lock} ({exc.strerror or exc})") from None
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                os.close(fd)
+                raise InputError(f"--out: {lock} is not a regular file (move it away)")
             try:
                 same = os.fstat(fd).st_ino == os.stat(lock).st_ino
             except FileNotFoundError:
@@ -161,17 +170,21 @@ class RunFolder:
         held = []
         for name in RUN_FILES:
             p = out / name
-            if p.is_symlink() or (p.exists() and not p.is_file()):
-                raise InputError(f"--out: {p} is not a regular file (a folder or a link has the name of an "
-                                 "output file; move it away)")
+            refuse_link(p)
             if p.exists():
                 held.append(name)
         for name in RUN_DIRS:
             p = out / name
-            if p.exists() and (p.is_symlink() or not p.is_dir()):
-                raise InputError(f"--out: {p} is not a checkpoint folder (move it away)")
+            refuse_link_dir(p)
             if p.is_dir():
                 held.append(name)
+                for inner in p.iterdir():  # meta.json, rank files: never written or removed through a link
+                    refuse_link(inner)
+        for name in ("plots", "meshes"):  # plot PNGs, the meshes of automatic remeshing
+            refuse_link_dir(out / name)
+            if (out / name).is_dir():
+                for inner in (out / name).iterdir():
+                    refuse_link(inner)
         self.held_run = bool(held)
         if held and mode == "new":
             status = _status_of(out)
@@ -183,19 +196,34 @@ class RunFolder:
         """Remove the earlier run's files (mode overwrite), after the new run is set up."""
         if self.mode != "overwrite" or not self.held_run:
             return
+        names = [n for n in RUN_FILES if (self.path / n).is_file()] + \
+                [n for n in RUN_DIRS if (self.path / n).is_dir()]
+        plots = self.path / "plots"
+        if plots.is_dir() and all(p.suffix == ".png" and p.is_file() for p in plots.iterdir()):
+            names.append("plots")
+        # first moved aside (renames, undone if one fails: the old run is whole or gone), then removed
+        trash = self.path / f".overwritten.{os.getpid()}"
+        moved = []
         try:
-            for name in RUN_FILES:
-                p = self.path / name
-                if p.is_file():
-                    p.unlink()  # unlink, not truncate: a reader holding fields.h5 keeps its copy
-            for name in RUN_DIRS:
-                if (self.path / name).is_dir():
-                    shutil.rmtree(self.path / name)
-            plots = self.path / "plots"
-            if plots.is_dir() and all(p.suffix == ".png" and p.is_file() for p in plots.iterdir()):
-                shutil.rmtree(plots)
+            trash.mkdir()
+            from ..parallel import failpoint
+
+            for name in names:
+                failpoint("overwrite")  # the fault suite: a rename that fails half-way
+                os.rename(self.path / name, trash / name)  # not truncated: a reader of fields.h5 keeps it
+                moved.append(name)
         except OSError as exc:
+            for name in reversed(moved):
+                try:
+                    os.rename(trash / name, self.path / name)
+                except OSError:
+                    pass
+            try:
+                trash.rmdir()
+            except OSError:
+                pass
             raise output_error(exc.filename or self.path, exc) from None
+        shutil.rmtree(trash, ignore_errors=True)
         self.held_run = False
 
     def release(self) -> None:

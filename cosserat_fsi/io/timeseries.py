@@ -107,15 +107,13 @@ class TimeSeriesWriter:
 
 def _parse(path: Path, prefix: str = "") -> tuple[list[str], list[bytes], int]:
     """(header names, complete row lines, byte offset after the header) of a time-series file."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except FileNotFoundError:
-        raise InputError(f"{prefix}{path} is missing") from None
-    except IsADirectoryError:
-        raise InputError(f"{prefix}{path} is a folder, not a time series") from None
-    except OSError as exc:
-        raise InputError(f"{prefix}{path}: cannot read ({exc.strerror or exc})") from None
+    from ..files import read_regular
+
+    if not os.path.lexists(path):
+        raise InputError(f"{prefix}{path} is missing")
+    if os.path.isdir(path):
+        raise InputError(f"{prefix}{path} is a folder, not a time series")
+    data = read_regular(path, "time series", prefix)  # a FIFO or a folder: refused without blocking
     end = data.find(b"\n")
     head = data[:end] if end >= 0 else b""
     try:

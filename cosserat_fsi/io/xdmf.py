@@ -20,6 +20,7 @@ import numpy as np
 from cosserat_fsi import compat  # before dolfinx
 from cosserat_fsi.errors import InputError, OutputError
 from cosserat_fsi.io.runfolder import atomic_write_text
+from cosserat_fsi.files import check_free_space
 from cosserat_fsi.parallel import failpoint, on_root, share
 import dolfinx.fem
 
@@ -192,6 +193,7 @@ class MovingMeshXDMF:
             try:
                 if self.h5 is None:
                     raise OSError(5, "the file was closed after an earlier error")
+                check_free_space(self.h5path, sum(a.nbytes for a in data.values()))  # HDF5 dies on a full disk
                 shapes = {}
                 for key, a in data.items():
                     a = a if key == "mesh/geometry" else _vec3(a)

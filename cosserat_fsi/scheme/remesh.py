@@ -58,6 +58,9 @@ def remesh_msh(mesh, cell_tags, facet_tags, sizes: np.ndarray, facet_ids: dict[s
         except Exception as exc:  # noqa: BLE001 (shared below: every rank raises)
             error = f"{type(exc).__name__}: {exc}"
     error = comm.bcast(error, root=0)
+    from ..parallel import failpoint
+
+    failpoint("remesh")  # the fault suite: a signal right after gmsh had the process
     if error is not None:
         from ..errors import DivergenceError
 
@@ -94,6 +97,9 @@ def _boundary_loops(edges: np.ndarray) -> list[list[int]]:
 def _mesh_on_root(ids, coords, sizes, cells, cell_tag, facets, facet_tag, facet_ids, path: Path) -> None:
     import gmsh
 
+    from ..files import refuse_link
+
+    refuse_link(path, "")  # gmsh.write follows links: never write out of the run folder through one
     order = np.argsort(ids)  # every node once (owned by one rank)
     ids, coords, sizes = ids[order], coords[order], sizes[order]
     where = {int(i): k for k, i in enumerate(ids)}

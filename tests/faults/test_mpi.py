@@ -80,3 +80,18 @@ def test_second_run_into_a_folder_holding_a_run(mpi_launcher, tiny_config, run_c
     line = check(result, 2, "error: --out:", "already holds a run")
     assert result.stderr.count(line) == 1
     assert snapshot(run_copy) == before
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rank", [0, 1])
+@pytest.mark.parametrize("kind, code", [("sigterm", 143), ("sigint", 130)])
+def test_signal_to_one_rank_in_the_time_loop(mpi_launcher, tiny_config, tmp_path, rank, kind, code):
+    """A signal that only one rank receives: both ranks stop after the step, with a checkpoint, one message
+    and summary.json ``interrupted``."""
+    out = tmp_path / "run"
+    result = cli("run", tiny_config, "--out", out, "--no-progress", launcher=mpi_launcher, timeout=MPI_TIMEOUT,
+                 COSSERAT_FSI_FAILPOINT=f"timeseries.write@{rank}:{kind}:2")
+    line = check(result, code, "interrupted: signal", "checkpoint written")
+    assert result.stderr.count(line) == 1
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+    assert (out / "checkpoint" / "meta.json").is_file() and not (out / ".lock").exists()
