@@ -127,7 +127,7 @@ def content_digest(path: str | os.PathLike) -> str:
         if not file.exists():
             digest.update(b"missing:" + file.name.encode())
             continue
-        data = read_regular(file, "gmsh file", "geometry.path: ")  # never blocks on a FIFO
+        data = read_regular(file, "gmsh file")  # never blocks on a FIFO
         digest.update(hashlib.sha256(data).digest())
         if file.suffix.lower() == ".geo":
             todo += [(file.parent / os.fsdecode(m)).resolve() for m in _INCLUDE.findall(data)]

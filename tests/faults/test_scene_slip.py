@@ -12,6 +12,7 @@ _STEPS = "time: {scheme: characteristics1, dt: 0.1, t_end: 0.1}\n"
 _BLOCK_WALLS = ('Physical Surface("fluid") = {1}; Physical Surface("solid") = {2}; '
                 'Physical Curve("walls") = {1,3,5}; Physical Curve("inlet") = {6}; Physical Curve("outlet") = {4};\n')
 _SOLID = "solid: {rho: 1.0, mu_s: 100.0}\n"
+_CLAMP = 'Physical Curve("clamp") = {2};\n'  # the block's foot: every boundary facet in a named group
 _CUT = ('Point(5) = {0.5,0.2,0,0.25}; Point(6) = {0.5,0.8,0,0.25}; Line(5) = {5,6}; Line{5} In Surface{1};\n'
         'Physical Curve("cut") = {5};\n')
 _FLOW = "inlet: {type: velocity, value: [1, 0]}, outlet: {type: do_nothing}"
@@ -23,11 +24,11 @@ CASES = {  # (geo, extra YAML, expected message)
     "slip_micro_without_micropolar": (_SQUARE + _TWO_NAMES, _STEPS + "boundaries: {walls: {type: slip, "
                                       "micro_rotation: zero}, outlet: {type: do_nothing}}\n",
                                       "boundaries.walls.micro_rotation: only with micropolar terms"),
-    "slip_steady_solid": (_BLOCK + _BLOCK_WALLS, _SOLID + "time: {scheme: steady}\n"
-                          f"boundaries: {{walls: {{type: slip}}, {_FLOW}}}\n",
+    "slip_steady_solid": (_BLOCK + _BLOCK_WALLS + _CLAMP, _SOLID + "time: {scheme: steady}\n"
+                          f"boundaries: {{walls: {{type: slip}}, clamp: {{type: no_slip}}, {_FLOW}}}\n",
                           "boundaries.walls: type slip is not available with time.scheme: steady for a scene with "
                           "a solid"),
-    "slip_on_solid_cells": (_BLOCK + _BLOCK_WALLS + 'Physical Curve("clamp") = {2};\n', _SOLID + _STEPS +
+    "slip_on_solid_cells": (_BLOCK + _BLOCK_WALLS + _CLAMP, _SOLID + _STEPS +
                             f"boundaries: {{walls: {{type: no_slip}}, clamp: {{type: slip}}, {_FLOW}}}\n",
                             "boundaries.clamp: type slip on a side of solid cells is not supported"),
     "slip_inside_the_mesh": (_SQUARE + _TWO_NAMES + _CUT, _STEPS + "boundaries: {walls: {type: no_slip}, "
