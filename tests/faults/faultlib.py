@@ -83,3 +83,29 @@ def snapshot(folder: Path) -> dict:
             for p in sorted(folder.rglob("*")) if not p.is_symlink()}
 
 
+
+
+def in_process_main(capsys, tmp_path):
+    """The body of the ``main`` fixtures: ``cli.main(argv)`` -> (exit code, stderr) in-process, with an
+    ``out`` folder holding one file that every call checks to stay byte for byte as it was (``call.out``);
+    the signal handlers are put back afterwards. Use as ``yield from in_process_main(capsys, tmp_path)``."""
+    import signal
+
+    from cosserat_fsi.app import cli as cli_module
+
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("precious")
+    before = snapshot(out)
+
+    def call(*argv):
+        code = cli_module.main([str(a) for a in argv])
+        err = capsys.readouterr().err
+        assert snapshot(out) == before
+        return code, err
+
+    call.out = out
+    yield call
+    for sig, handler in handlers.items():
+        signal.signal(sig, handler)

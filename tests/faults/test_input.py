@@ -3,34 +3,17 @@
 
 from __future__ import annotations
 
-import signal
 
 import pytest
 
-from cosserat_fsi.app import cli
-from faultlib import TINY as TINY_TEXT, check, cli as run_cli, snapshot
+from faultlib import TINY as TINY_TEXT, check, cli as run_cli, in_process_main
 
 
 @pytest.fixture
 def main(capsys, tmp_path):
     """``cli.main(argv)`` -> (exit code, stderr); signal handlers restored; the --out folder is checked
-    to stay as it was."""
-    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
-    out = tmp_path / "out"
-    out.mkdir()
-    (out / "keep.txt").write_text("precious")
-    before = snapshot(out)
-
-    def call(*argv):
-        code = cli.main([str(a) for a in argv])
-        err = capsys.readouterr().err
-        assert snapshot(out) == before
-        return code, err
-
-    call.out = out
-    yield call
-    for sig, handler in handlers.items():
-        signal.signal(sig, handler)
+    to stay as it was (faultlib.in_process_main)."""
+    yield from in_process_main(capsys, tmp_path)
 
 
 def _one_line(code, err, expected):

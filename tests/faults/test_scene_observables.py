@@ -7,14 +7,12 @@ channel of tests/data/user_scene, level 0: setup-time cases cost one mesh read).
 
 from __future__ import annotations
 
-import signal
 import shutil
 from pathlib import Path
 
 import pytest
 
-from cosserat_fsi.app import cli
-from faultlib import snapshot
+from faultlib import in_process_main, snapshot
 
 CHANNEL = Path(__file__).resolve().parents[1] / "data" / "user_scene" / "channel.geo"
 SCENE = """\
@@ -80,25 +78,10 @@ CASES = {  # --set -> the expected message (after "error: ")
 def main(capsys, tmp_path, monkeypatch):
     """``cli.main(argv)`` -> (exit code, stderr) in a folder holding the scene; the --out folder is checked to
     stay byte for byte as it was."""
-    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
     shutil.copy(CHANNEL, tmp_path / "channel.geo")
     (tmp_path / "scene.yaml").write_text(SCENE)
     monkeypatch.chdir(tmp_path)
-    out = tmp_path / "out"
-    out.mkdir()
-    (out / "keep.txt").write_text("precious")
-    before = snapshot(out)
-
-    def call(*argv):
-        code = cli.main([str(a) for a in argv])
-        err = capsys.readouterr().err
-        assert snapshot(out) == before
-        return code, err
-
-    call.out = out
-    yield call
-    for sig, handler in handlers.items():
-        signal.signal(sig, handler)
+    yield from in_process_main(capsys, tmp_path)
 
 
 @pytest.mark.parametrize("setting, expected", CASES.values(), ids=CASES)

@@ -5,12 +5,11 @@ these refusals (the ``default`` condition, the inlet's profile, the wall gap): t
 from __future__ import annotations
 
 import shutil
-import signal
 
 import pytest
 
 from cosserat_fsi.app import cli
-from faultlib import snapshot
+from faultlib import in_process_main, snapshot
 
 SQUARE = """Point(1) = {0,0,0,0.25}; Point(2) = {1,0,0,0.25}; Point(3) = {1,1,0,0.25}; Point(4) = {0,1,0,0.25};
 Line(1) = {1,2}; Line(2) = {2,3}; Line(3) = {3,4}; Line(4) = {4,1};
@@ -127,24 +126,9 @@ CASES = {  # (.geo text, extra YAML, the message's start after "error: ", a part
 @pytest.fixture
 def main(capsys, tmp_path, monkeypatch):
     """``cli.main(argv)`` -> (exit code, stderr); the --out folder stays byte for byte as it was."""
-    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
     monkeypatch.setenv("COSSERAT_FSI_MESH_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
-    out = tmp_path / "out"
-    out.mkdir()
-    (out / "keep.txt").write_text("precious")
-    before = snapshot(out)
-
-    def call(*argv):
-        code = cli.main([str(a) for a in argv])
-        err = capsys.readouterr().err
-        assert snapshot(out) == before
-        return code, err
-
-    call.out = out
-    yield call
-    for sig, handler in handlers.items():
-        signal.signal(sig, handler)
+    yield from in_process_main(capsys, tmp_path)
 
 
 def _one_line(code, err, start, part):
