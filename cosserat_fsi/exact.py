@@ -60,6 +60,31 @@ class MicropolarPoiseuille:
         return self.G * (self.L - x[0])
 
 
+class MicropolarCouette:
+    """Steady micropolar Couette flow between y = 0 (at rest, ω = a) and y = H (velocity U, ω = b), no
+    pressure gradient: (μ + μ_r) u'' + 2μ_r ω' = 0 and λ₁ ω'' − 4μ_r ω − 2μ_r u' = 0 (eqs. 31–32 in 1D; 2D
+    curl u = −u'). The first integrates to (μ + μ_r) u' + 2μ_r ω = C; then ω'' − k² ω = 2μ_r C / (λ₁ (μ + μ_r))
+    with k² = 4μμ_r / (λ₁ (μ + μ_r)), so ω = −C/(2μ) + A cosh(ks) + B sinh(ks), s = y − H/2; (C, A, B) from
+    ω(0) = a, ω(H) = b, u(H) = U."""
+
+    def __init__(self, U, a, b, mu, mu_r, lambda1, H=1.0):
+        self.H, self.mu, self.mu_r = H, mu, mu_r
+        self.k = k = np.sqrt(4 * mu * mu_r / (lambda1 * (mu + mu_r)))
+        ch, sh = np.cosh(k * H / 2), np.sinh(k * H / 2)
+        self.C, self.A, self.B = np.linalg.solve([[-1 / (2 * mu), ch, -sh], [-1 / (2 * mu), ch, sh],
+                                                  [H / mu, -4 * mu_r * sh / (k * (mu + mu_r)), 0.0]], [a, b, U])
+
+    def profiles(self, y):
+        """u(y), ω(y)."""
+        mu, mu_r, k, m = self.mu, self.mu_r, self.k, self.mu + self.mu_r
+        C, A, B, eta = self.C, self.A, self.B, self.H / 2
+        ch, sh, s = np.cosh(k * eta), np.sinh(k * eta), np.asarray(y) - eta
+        omega = -C / (2 * mu) + A * np.cosh(k * s) + B * np.sinh(k * s)
+        u = (C * np.asarray(y) * m / mu
+             - 2 * mu_r * (A / k * (np.sinh(k * s) + sh) + B / k * (np.cosh(k * s) - ch))) / m
+        return u, omega
+
+
 class MicropolarTaylorGreen:
     """Reference §2 (k = 1) on [0, π]²: F, W from the 2×2 linear ODE, (F, W)(0) = (1, 0)."""
 

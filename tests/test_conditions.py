@@ -59,20 +59,11 @@ def _profiles(run_cli, tmp_path, boundaries: str, time: str = "{scheme: steady}"
     return column["y"], np.column_stack([column["u"], column["v"]]), column["omega"], column["p"]
 
 
-def couette(y, U, a, b, mu=MU, mu_r=MU_R, lambda1=LAMBDA1, H=1.0):
-    """Steady micropolar Couette flow between y = 0 (at rest, ω = a) and y = H (velocity U, ω = b), no pressure
-    gradient: (μ + μ_r) u'' + 2μ_r ω' = 0 and λ₁ ω'' − 4μ_r ω − 2μ_r u' = 0 (fluid.py; 2D curl u = −u').
-    The first integrates to (μ + μ_r) u' + 2μ_r ω = C; then ω'' − k² ω = 2μ_r C / (λ₁ (μ + μ_r)), so
-    ω = −C/(2μ) + A cosh(ks) + B sinh(ks) with s = y − H/2; (C, A, B) from ω(0) = a, ω(H) = b, u(H) = U."""
-    k = np.sqrt(4 * mu * mu_r / (lambda1 * (mu + mu_r)))
-    eta, m = H / 2, mu + mu_r
-    ch, sh = np.cosh(k * eta), np.sinh(k * eta)
-    C, A, B = np.linalg.solve([[-1 / (2 * mu), ch, -sh], [-1 / (2 * mu), ch, sh],
-                               [H / mu, -4 * mu_r * sh / (k * m), 0.0]], [a, b, U])
-    s = y - eta
-    omega = -C / (2 * mu) + A * np.cosh(k * s) + B * np.sinh(k * s)
-    u = (C * y * m / mu - 2 * mu_r * (A / k * (np.sinh(k * s) + sh) + B / k * (np.cosh(k * s) - ch))) / m
-    return u, omega
+def couette(y, U, a, b):
+    """u, ω of the micropolar Couette flow (cosserat_fsi/exact.py) with this module's coefficients."""
+    from cosserat_fsi.exact import MicropolarCouette
+
+    return MicropolarCouette(U, a, b, MU, MU_R, LAMBDA1).profiles(y)
 
 
 def _relative(computed, exact):

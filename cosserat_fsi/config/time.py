@@ -83,7 +83,7 @@ class Steady(_Section):
 
     ``newton_max_iterations``, ``newton_rtol``: the iteration limit and relative residual tolerance.
     ``newton_continuation``: fractions of the convection (of the load for a solid) tried one after the
-    other when Newton from the Stokes/unloaded state does not converge."""
+    other, from the Stokes solution (the unloaded state), when Newton at full scale does not converge."""
 
     scheme: Literal["steady"] = "steady"
     newton_max_iterations: int = Field(default=25, ge=1, le=1000)

@@ -170,17 +170,18 @@ class Newton:
         return report
 
     def continuation(self, scale, values, initial: np.ndarray) -> NewtonReport:
-        """Newton at scale = 1 from ``initial``; if that fails, from ``initial`` again through ``values``."""
+        """Newton at scale = 1 from ``initial``; if that fails, from ``initial`` again through scale 0 (the
+        Stokes solution of a flow, one linear solve) and then ``values``."""
         scale.value = 1.0
         report = self.solve(stage=1.0)
         report.stages = [1.0]
         reference = report.history[0]["residual"] if report.history else None
         if report.converged or list(values) in ([], [1.0]):
             return report
-        log.info("%s: no convergence at full scale (%s); continuation through %s", self.name, report.message,
-                 ", ".join(f"{v:g}" for v in values))
+        log.info("%s: no convergence at full scale (%s); continuation through 0 (Stokes/unloaded), %s", self.name,
+                 report.message, ", ".join(f"{v:g}" for v in values))
         self.state.x.array[:] = initial
-        for value in values:
+        for value in [0.0, *values]:  # from the Stokes iterate (or the unloaded state): then each fraction
             scale.value = value
             report.stages.append(value)
             report.converged = False

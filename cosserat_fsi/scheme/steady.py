@@ -3,8 +3,9 @@
 Navier–Stokes and micropolar scenes: the residual of seed eqs. (31)–(32) with the convective acceleration
 ρ (u·∇)u in the momentum equation and ρI (u·∇)ω in the micro-rotation equation (∂/∂t = 0), given to the
 scene's :class:`~.problem.Problem` residual as its material accelerations. Newton starts from the rest
-state with the boundary data, so its first iterate is the Stokes solution; when it does not converge, a
-continuation in the convection (the Reynolds number) follows (``time.newton_continuation``).
+state with the boundary data; when it does not converge, a continuation in the convection (the Reynolds
+number) follows: from the Stokes solution (convection 0, one linear solve) through the fractions of
+``time.newton_continuation`` (a developed Poiseuille flow is its own Stokes solution: any Reynolds number).
 
 Scenes with a solid (CSM, FSI): :mod:`.steady_solid` (Lagrangian statics, monolithic ALE for FSI); the
 scheme registry (schemes.py) picks one of the two.
