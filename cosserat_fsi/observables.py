@@ -52,7 +52,8 @@ class Observables:
         body = BODY if named is None else (*named.forces, *(("interface",) if named.wetted_solid else ()))
         body_tags = tuple(ids[b] for b in body
                           if b in ids and self.comm.allreduce(int(np.any(ft.values == ids[b])), op=MPI.MAX))
-        self.columns = []
+        self._adaptive = getattr(scene.time, "tolerance", None) is not None
+        self.columns = ["dt"] if self._adaptive else []  # the step's δt, chosen by time.tolerance
         self._force_forms = None
         if body_tags and scene.has_fluid:
             self._force_forms = _force_forms(sim, u, T, n, ds, body_tags)
@@ -174,7 +175,7 @@ class Observables:
                 for name, node in self._solid_points.items()}
 
     def evaluate(self) -> dict:
-        out = {}
+        out = {"dt": self.sim.state.steps.last} if self._adaptive else {}
         if self._force_forms is not None:
             forces = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._force_forms]
             out.update(zip(("drag", "lift", "drag_surface", "lift_surface"), forces))

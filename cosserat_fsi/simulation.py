@@ -68,7 +68,8 @@ class Simulation:
         """A State for the scene's scheme on the current problem and mesh motion (not set): the levels and
         rates the scheme keeps."""
         scheme = scheme_class(self.scene, self.problem.model)
-        return State(self.problem, scheme.levels(self.scene.time), self.motion, rates=scheme.RATES)
+        return State(self.problem, scheme.levels(self.scene.time), self.motion, rates=scheme.RATES,
+                     adaptive=getattr(self.scene.time, "tolerance", None) is not None)
 
     def _stepper(self):
         """The scene's time scheme (scheme/schemes.py), with its boundary conditions."""
@@ -88,11 +89,13 @@ class Simulation:
         return None
 
     # ------------------------------------------------------------------------------- the loop
-    def step(self, observers: Iterable[Callback] = ()) -> None:
-        """One time step; ``observers(sim)`` after the solve, on the mesh it was solved on; then a remesh if
-        the cells became too poor (``solid.mesh_motion.remesh``)."""
+    def step(self, observers: Iterable[Callback] = (), dt: float | None = None) -> None:
+        """One time step (of size ``dt`` if given: a prescribed sequence of steps; else the scene's or, with
+        ``time.tolerance``, the controller's); ``observers(sim)`` after the solve, on the mesh it was solved on;
+        then a remesh if the cells became too poor (``solid.mesh_motion.remesh``)."""
         observers = tuple(observers)
-        self.stepper.advance(observe=(lambda: [o(self) for o in observers]) if observers else None)
+        observe = (lambda: [o(self) for o in observers]) if observers else None
+        self.stepper.advance(observe) if dt is None else self.stepper.advance(observe, dt=dt)
         settings = self.scene.solid.mesh_motion.remesh if self.scene.solid is not None else None
         quality = getattr(self.motion, "min_fluid_quality", None)  # a remesh can only mend the fluid cells
         if (settings is not None and isinstance(self.motion, MeshMotion) and quality is not None
@@ -194,8 +197,31 @@ class Simulation:
             for callback in after_step:
                 callback(self)
 
+    def run_to(self, t_end: float, observers: Iterable[Callback] = (), after_step: Iterable[Callback] = ()) -> None:
+        """Step until t = ``t_end`` (the scene's with ``time.tolerance``: the controller's steps end there)."""
+        observers, after_step = tuple(observers), tuple(after_step)
+        if self.time_control is not None:
+            self.time_control.t_end = float(t_end)
+        while not self.finished(t_end):
+            self.step(observers)
+            for callback in after_step:
+                callback(self)
+
+    def finished(self, t_end: float) -> bool:
+        """Has the run reached ``t_end``?"""
+        control = self.time_control
+        if control is None:
+            return self.step_count >= self.steps_to(t_end)
+        return t_end - self.t <= 1e-9 * max(1.0, abs(t_end))
+
+    @property
+    def time_control(self):
+        """The step size controller (scheme/time_control.py; None with a fixed step)."""
+        return getattr(self.stepper, "control", None)
+
     def steps_to(self, t_end: float) -> int:
-        """The number of steps of the run to ``t_end`` (a steady solve is one step: its dt and t_end are 1)."""
+        """The number of steps of the run to ``t_end`` (a steady solve is one step: its dt and t_end are 1;
+        with ``time.tolerance`` the number of steps of size ``time.dt``)."""
         return int(round(t_end / self.scene.time.dt))
 
     def check(self) -> None:

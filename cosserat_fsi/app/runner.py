@@ -191,7 +191,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
                                   f"with `cosserat-fsi run CONFIG --restart {out_dir}`", signum)
             stopped.shared = True  # every rank stops here (the signal is shared by _step_end): one summary
             raise stopped
-        if every_ck and not steady and (k % every_ck == 0 or k == n_steps):  # the last step too: see run_scene
+        if every_ck and not steady and (k % every_ck == 0 or sim.finished(scene.time.t_end)):  # the last step too
             checkpoint()
 
     try:
@@ -209,7 +209,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
                 _write_fields(fields, sim)
             if not restart and not steady:
                 write_profiles(profiles, observables, sim)
-            sim.run(n_steps, observers=[observe], after_step=[after_step])
+            sim.run_to(scene.time.t_end, observers=[observe], after_step=[after_step])
             sim.check()  # a steady Newton that did not converge: exit 3 after the outputs
         for writer in (series, *profiles.values()):
             writer.close()

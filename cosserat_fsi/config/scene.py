@@ -59,6 +59,8 @@ class Scene(_Section):
             if not time.t_end / time.dt <= MAX_STEPS:  # also catches an overflow to inf
                 raise ValueError(f"time.dt: time.t_end / time.dt must be at most {MAX_STEPS:,} steps "
                                  f"(got {time.t_end!r} / {time.dt!r})")
+        if time.scheme != "steady":
+            _check_step_control(time)
         if time.scheme == "characteristics2" and time.corrector_passes and not self.has_solid:
             raise ValueError("time.corrector_passes: needs a solid with scheme characteristics2 (the passes "
                              "re-place the mesh; Picard passes: scheme ale_bdf2 or generalized_alpha)")
@@ -196,3 +198,18 @@ def dump_resolved(scene: Scene, conditions: list[str] | None = None) -> str:
         text += ("# boundaries, as resolved from the geometry's preset (a comment: only a file scene takes a "
                  "boundaries section):\n" + "".join(f"#   {line}\n" for line in conditions))
     return text
+
+
+def _check_step_control(time) -> None:
+    """time.dt_min, dt_max, error_floor go with time.tolerance, and dt_min <= dt <= dt_max."""
+    if time.tolerance is None:
+        for key in ("dt_min", "dt_max"):
+            if getattr(time, key) is not None:
+                raise ValueError(f"time.{key}: needs time.tolerance (a fixed step is time.dt)")
+        if "error_floor" in time.model_fields_set:
+            raise ValueError("time.error_floor: needs time.tolerance (a fixed step is time.dt)")
+        return
+    if time.dt_min is not None and time.dt_min > time.dt:
+        raise ValueError(f"time.dt_min: must be <= time.dt, the first step (got {time.dt_min!r} > {time.dt!r})")
+    if time.dt_max is not None and time.dt_max < time.dt:
+        raise ValueError(f"time.dt_max: must be >= time.dt, the first step (got {time.dt_max!r} < {time.dt!r})")

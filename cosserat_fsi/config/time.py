@@ -15,10 +15,23 @@ CorrectorPasses = Annotated[int, Field(ge=0, le=5)]
 
 
 class _Stepping(_Section):
-    """A time-stepping scheme: step ``dt`` and end time ``t_end`` (s), both required."""
+    """A time-stepping scheme: step ``dt`` and end time ``t_end`` (s), both required.
+
+    ``tolerance``: ask for an accuracy instead of a step: each step's size is chosen from an embedded
+    estimate of its error (the step's solution against an explicit predictor; scheme/time_control.py), so
+    that the error the run delivers is proportional to ``tolerance`` (a relative error of the velocity and,
+    in the solid, the displacement). ``dt`` is then the first steps' size; ``dt_min`` (default dt/1000: a
+    step rejected there stops the run, exit 3), ``dt_max`` (default: none) bound the steps; ``error_floor``
+    (default 0.01) is the absolute floor of the relative error's weights, as a fraction of the field's largest
+    value, so that a field's near-zero values do not decide the step. The δt of each step is the ``dt``
+    column of timeseries.csv."""
 
     dt: PositiveFloat
     t_end: PositiveFloat
+    tolerance: float | None = Field(default=None, gt=0, lt=1)
+    dt_min: PositiveFloat | None = None
+    dt_max: PositiveFloat | None = None
+    error_floor: float = Field(default=0.01, gt=0, le=1)
 
 
 class Characteristics1(_Stepping):

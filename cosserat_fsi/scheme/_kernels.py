@@ -184,10 +184,10 @@ def _coef(values, d, b):
 
 
 @_jit
-def _combine2(a, b):
-    """2a_k − b_k for the six coefficients (numpy's 2.0 * a − b, element by element)."""
-    return (2.0 * a[0] - b[0], 2.0 * a[1] - b[1], 2.0 * a[2] - b[2], 2.0 * a[3] - b[3], 2.0 * a[4] - b[4],
-            2.0 * a[5] - b[5])
+def _combine2(a, b, e1, e2):
+    """e₁a_k − e₂b_k for the six coefficients (numpy's e1 * a − e2 * b, element by element)."""
+    return (e1 * a[0] - e2 * b[0], e1 * a[1] - e2 * b[1], e1 * a[2] - e2 * b[2], e1 * a[3] - e2 * b[3],
+            e1 * a[4] - e2 * b[4], e1 * a[5] - e2 * b[5])
 
 
 @_jit
@@ -228,9 +228,10 @@ def at_reference_points(phi, dofs, values, bs, n_cells):
 
 
 @_jit
-def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neighbours,
+def bdf2_quadrature(x, nq, phi, moving, steps, tol, max_steps, loc_n, loc_nm1, neighbours,
                     dofs_u, u_n, u_nm1, dofs_w, w_n, w_nm1, with_w, qdofs_u, out_u, qdofs_w, out_w):
-    """The BDF2 history α h = 2 f^n(x − δt u*) − ½ f^{n−1}(x − 2δt u*), u* = 2u^n − u^{n−1}, at the
+    """The BDF2 history α h = a₁ f^n(x − δt u*) − a₂ f^{n−1}(x − δt₂ u*), u* = e₁u^n − e₂u^{n−1}, with
+    ``steps`` = (δt, δt₂, e₁, e₂, a₁, a₂) (variable_step.BdfWeights; (δt, 2δt, 2, 1, 2, ½) at constant steps), at the
     quadrature points x (cell-major: point i is point i % nq of cell i // nq), for f = u (2-vector) and,
     ``with_w``, ω (scalar), written into the quadrature functions' arrays ``out_u[2 qdofs_u[i] + b]``,
     ``out_w[qdofs_w[i]]``: the operations of histories.py's numpy path, in its order.
@@ -240,7 +241,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neig
     ``loc_nm1`` ((x0, J⁻¹) of ``PointLocator``) the fields were computed on. The feet are located by a
     walk from the point's cell in ``loc_n`` (f^n) and ``loc_nm1`` (f^{n−1}), the basis taken from the
     walk's last barycentric coordinates, the coefficients of the point's own cell loaded once per cell.
-    On a fixed mesh u* is Σ_k φ_k (2c^n_k − c^{n−1}_k), as histories.py's numpy path computes it.
+    On a fixed mesh u* is Σ_k φ_k (e₁c^n_k − e₂c^{n−1}_k), as histories.py's numpy path computes it.
     Returns (status, u*): status 0 = done, 1 = a foot not reached by a walk (u* set there only), 2 = x
     not reached in an earlier configuration (moving mesh): the caller does those on the general path."""
     n = x.shape[0]
@@ -249,7 +250,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neig
     x0a, Ja = loc_n
     x0b, Jb = loc_nm1
     big = np.iinfo(np.int32).max
-    dt2 = 2.0 * dt
+    dt, dt2, e1, e2, h1, h2 = steps
     for c in range(n // nq):
         d = _dofs6(dofs_u, c, 2)
         a = (_coef(u_n, d, 0), _coef(u_n, d, 1))  # u^n and u^{n−1} in this cell
@@ -257,7 +258,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neig
         e = _dofs6(dofs_w, c, 1)
         wa, wb = _coef(w_n, e, 0), _coef(w_nm1, e, 0)
         if not moving:  # u* = 2u^n − u^{n−1} combined coefficient by coefficient, then summed once
-            sa = (_combine2(a[0], b[0]), _combine2(a[1], b[1]))
+            sa = (_combine2(a[0], b[0], e1, e2), _combine2(a[1], b[1], e1, e2))
         for q in range(nq):
             i = c * nq + q
             px, py = x[i, 0], x[i, 1]
@@ -272,7 +273,7 @@ def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neig
             else:
                 p = (phi[q, 0], phi[q, 1], phi[q, 2], phi[q, 3], phi[q, 4], phi[q, 5])
             if moving:
-                s0, s1 = 2.0 * un0 - um0, 2.0 * un1 - um1
+                s0, s1 = e1 * un0 - e2 * um0, e1 * un1 - e2 * um1
             else:
                 s0, s1 = _sum6(p, sa[0]), _sum6(p, sa[1])
             f1x, f1y = px - dt * s0, py - dt * s1
@@ -287,11 +288,11 @@ def bdf2_quadrature(x, nq, phi, moving, dt, tol, max_steps, loc_n, loc_nm1, neig
             v10, v11 = _vector_at(p1, c1, c, a, u_n, dofs_u)
             v20, v21 = _vector_at(p2, c2, c, b, u_nm1, dofs_u)
             o = 2 * qdofs_u[i]
-            out_u[o] = 2.0 * v10 - 0.5 * v20
-            out_u[o + 1] = 2.0 * v11 - 0.5 * v21
+            out_u[o] = h1 * v10 - h2 * v20
+            out_u[o + 1] = h1 * v11 - h2 * v21
             if with_w:
-                out_w[qdofs_w[i]] = (2.0 * _scalar_at(p1, c1, c, wa, w_n, dofs_w)
-                                     - 0.5 * _scalar_at(p2, c2, c, wb, w_nm1, dofs_w))
+                out_w[qdofs_w[i]] = (h1 * _scalar_at(p1, c1, c, wa, w_n, dofs_w)
+                                     - h2 * _scalar_at(p2, c2, c, wb, w_nm1, dofs_w))
     return status, u_star
 
 
@@ -311,6 +312,7 @@ def warm_up() -> None:
         for bs in (1, 2, 3):
             p2_values(pts, cells, x0, Jinv, dofs, np.zeros(6 * bs), bs)
         qdofs = np.zeros(1, dtype=np.int32)
-        bdf2_quadrature(pts, 1, np.zeros((1, 6)), False, 0.1, 1e-10, 8, (x0, Jinv), (x0, Jinv), neighbours,
+        steps = (0.1, 0.2, 2.0, 1.0, 2.0, 0.5)
+        bdf2_quadrature(pts, 1, np.zeros((1, 6)), False, steps, 1e-10, 8, (x0, Jinv), (x0, Jinv), neighbours,
                         dofs, np.zeros(12), np.zeros(12), dofs, np.zeros(6), np.zeros(6), False, qdofs,
                         np.zeros(2), qdofs, np.zeros(1))

@@ -34,13 +34,14 @@ class AleBdf2(BdfStep):
     def _convected(self, f, rate):
         return self.convection.material_derivative(f, rate)
 
-    def _prepare(self, alpha: float, t_new: float) -> None:
-        """The convecting velocity with u* = u^n (the first-order start step) or 2u^n − u^{n−1} at t^{n+1}."""
+    def _prepare(self, bdf, t_new: float) -> None:
+        """The convecting velocity with u* = u^n (the first-order start step) or (1 + ω)u^n − ωu^{n−1} at
+        t^{n+1} (2u^n − u^{n−1} at constant steps)."""
         with self.timers("mesh_motion"):
             u, u_prev = self.state.velocity.x.array, self.state.velocity_prev.x.array
-            self.convection.set(u if alpha == 1.0 else 2.0 * u - u_prev, t_new)
+            self.convection.set(bdf.extrapolated(u, u_prev), t_new)
 
-    def _pass(self, alpha: float, t_new: float) -> None:
+    def _pass(self, bdf, t_new: float) -> None:
         """A Picard pass: the convecting velocity becomes u^{n+1} − w* with the step's solution for u^{n+1}
         (the mesh, its velocity and the histories stay), and the step is solved again."""
         self.convection.relinearise(self._new_velocity())

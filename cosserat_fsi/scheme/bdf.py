@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import compat
 from .time_step import TimeStep
+from .variable_step import BdfWeights
 
 import dolfinx
 
@@ -40,55 +41,80 @@ class BdfStep(TimeStep):
         self.b = compat.create_vector(self.L_form, self.problem.space.W)
 
     # --------------------------------------------------------------------------------- one step
-    def advance(self, observe=None) -> None:
-        """t^n → t^{n+1}: solve on Ω^n (BDF2 moving: its own configuration), update d, then move the mesh
-        to Ω^{n+1}. ``observe()`` is called after the solve, while the mesh is still the one solved on."""
+    def weights(self) -> BdfWeights:
+        """The BDF weights of the coming step of size ``self.dt`` (first order, or BDF2's first step: backward
+        Euler; BDF2: the step ratio ω = δt_n/δt_{n−1})."""
         state = self.state
-        alpha = 1.0 if (self.order == 1 or state.step_count == 0) else 1.5
+        if self.order == 1 or state.step_count == 0:
+            return BdfWeights(1, self.dt)
+        last = state.steps.last
+        return BdfWeights(2, self.dt, self.dt / last if last > 0.0 else 1.0)
+
+    def _attempt(self) -> None:
+        """Solve t^n → t^{n+1} of size ``self.dt`` on Ω^n (BDF2 moving: its own configuration); the state is
+        not changed (a rejected attempt is simply tried again)."""
+        state = self.state
+        self.bdf = bdf = self.weights()
+        alpha = bdf.alpha
         if self.solve_displacement is not None:
             with self.timers("mesh_motion"):
-                self._to_solve_configuration(alpha)
+                self._to_solve_configuration(bdf)
         if self.d_star is not None:
-            d, d_prev = state.displacement.x.array, state.displacement_prev.x.array
-            self.d_star.x.array[:] = d if alpha == 1.0 else (4.0 * d - d_prev) / 3.0
-        t_new = (state.step_count + 1) * self.dt
-        self._prepare(alpha, t_new)
+            self.d_star.x.array[:] = bdf.base(state.displacement.x.array, state.displacement_prev.x.array)
+        t_new = self.t_new = self._time_after_step()
+        self._prepare(bdf, t_new)
         self._matrix(alpha)
         self.boundary.update(t_new)
         self.problem.update_sources(t_new)
         with self.timers("backtrack"):
-            self.histories.update(alpha, state, self.solve_displacement)
+            self.histories.update(bdf, state, self.solve_displacement)
         with self.timers("assemble_vector"):
             self._vector()
         self._solve(t_new)
-        for _ in range(self.passes if alpha != 1.0 else 0):
-            self._pass(alpha, t_new)
+        for _ in range(self.passes if bdf.order == 2 else 0):
+            self._pass(bdf, t_new)
+
+    def _commit(self, observe=None) -> None:
+        """The attempted step becomes t^{n+1}: the levels, d, t; ``observe()`` while the mesh is still the
+        one solved on; then the mesh moves to Ω^{n+1}."""
+        state, bdf = self.state, self.bdf
         state.shift(self.solution, self.problem.space)
         if self.d_star is not None:
-            self._update_displacement(alpha)
-        state.t, state.step_count = t_new, state.step_count + 1
+            self._update_displacement(bdf.alpha)
+        state.t, state.step_count = self.t_new, state.step_count + 1
+        state.steps.accepted(self.dt)
         if observe is not None:
             observe()
         if self.motion is not None:
             with self.timers("mesh_motion"):
-                self._move_mesh(alpha)
+                self._move_mesh(bdf)
 
-    def _prepare(self, alpha: float, t_new: float) -> None:
+    def candidate_displacement(self):
+        """d^{n+1} = d* + (δt/α) u^{n+1} at the solid's nodes (an array of the node's components) of the
+        attempted step, or None without a solid."""
+        if self.d_star is None:
+            return None
+        dim, nodes = self.problem.mesh.geometry.dim, self.problem.solid_velocity_dofs
+        u = self._new_velocity().reshape(-1, dim)[nodes]
+        return self.d_star.x.array.reshape(-1, dim)[nodes] + (self.dt / self.bdf.alpha) * u
+
+    def _prepare(self, bdf: BdfWeights, t_new: float) -> None:
         """Before the matrix is assembled (the nodal scheme sets its convecting velocity)."""
 
-    def _pass(self, alpha: float, t_new: float) -> None:
+    def _pass(self, bdf: BdfWeights, t_new: float) -> None:
         """One more solve of the step (``time.corrector_passes``)."""
         raise NotImplementedError
 
     def _matrix(self, alpha: float):
-        """Assemble (and have the solver factorise) the matrix when α changed or the matrix can change."""
-        if (self.A is not None and self._alpha_of_A == alpha and self.motion is None
+        """Assemble (and have the solver factorise) the matrix when α or δt changed or the matrix can change."""
+        if (self.A is not None and self._alpha_of_A == (alpha, self.dt) and self.motion is None
                 and not self.NODAL_CONVECTION):
             return
         self.alpha.value = alpha
+        self.inv_dt.value = 1.0 / self.dt
         self.solid_dt.value = self.dt / alpha
         self._reassemble(self.a_form)
-        self._alpha_of_A = alpha
+        self._alpha_of_A = (alpha, self.dt)
 
     def restored(self) -> None:
         super().restored()
@@ -101,7 +127,7 @@ class BdfStep(TimeStep):
         (w the P1 mesh velocity) gives the same vertices but lets the mid-edge values drift from them; on
         the seed's FSI3 run that drift triggers a local pressure blow-up at the flag tip."""
         state = self.state
-        state.displacement_prev.x.array[:] = state.displacement.x.array
+        state.new_displacement_level()
         dim = self.problem.mesh.geometry.dim
         d, d_star = state.displacement.x.array.reshape(-1, dim), self.d_star.x.array.reshape(-1, dim)
         nodes = self.problem.solid_velocity_dofs
@@ -109,23 +135,24 @@ class BdfStep(TimeStep):
         state.displacement.x.scatter_forward()
 
     # ------------------------------------------------------------------------------ the mesh
-    def _to_solve_configuration(self, alpha: float):
-        """BDF2 on a moving mesh: put the mesh at Ω* = X + (4D^n − D^{n−1})/3 (Ω^n for the first-order
-        start step), where d* = (4d^n − d^{n−1})/3 lives, or at X + 2D^n − D^{n−1} (``extrapolate``: the
-        solid's nodes are the same material points, so d* and eq. 28 stay, but the gradients and the
-        interface are those of t^{n+1} up to O(δt²)), and locate in it."""
+    def _to_solve_configuration(self, bdf: BdfWeights):
+        """BDF2 on a moving mesh: put the mesh at Ω* = X + D*, D* the BDF2 base of D (``BdfWeights.base``:
+        (4D^n − D^{n−1})/3 at constant steps; Ω^n for the first-order start step), where d* lives, or at the
+        extrapolation X + (1 + ω)D^n − ωD^{n−1} (``extrapolate``: the solid's nodes are the same material
+        points, so d* and eq. 28 stay, but the gradients and the interface are those of t^{n+1} up to
+        O(δt²)), and locate in it."""
         D = self.motion.displacement.x.array
         E = self.solve_displacement.x.array
         D_prev = self.state.mesh_displacement_prev.x.array
-        E[:] = D if alpha == 1.0 else (4.0 * D - D_prev) / 3.0
+        E[:] = bdf.base(D, D_prev)
         if self.motion_base is not None:
             self.motion_base[:] = E
-        if self.extrapolate and alpha != 1.0:
-            E[:] = 2.0 * D - D_prev
+        if self.extrapolate and bdf.order == 2:
+            E[:] = bdf.extrapolated(D, D_prev)
         self.motion.place(E, self.state.t)
         self.histories.mesh_moved(rebuild=True)
 
-    def _move_mesh(self, alpha: float):
+    def _move_mesh(self, bdf: BdfWeights):
         """Ω^n → Ω^{n+1} (mesh motion) and the mesh velocity; BDF2 keeps the configurations."""
         state, m = self.state, self.motion
         if self.order == 2:  # the configuration u^n was computed on, for the next BDF2 feet
@@ -135,6 +162,6 @@ class BdfStep(TimeStep):
             self.histories.remember_configuration()
         base = (None if self.order == 1 else self.motion_base if self.motion_base is not None
                 else self.solve_displacement.x.array)
-        w_P1 = m.move(state.velocity, self.dt, state.t, alpha, base)
+        w_P1 = m.move(state.velocity, self.dt, state.t, bdf.alpha, base)
         state.mesh_velocity.interpolate(w_P1)
         self.histories.mesh_moved(rebuild=self.order == 2)

@@ -47,13 +47,13 @@ class Characteristics(BdfStep):
             self.d_predicted, self.u_predicted = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
             self.a_corrector, self.L_corrector = self._forms(self.d_predicted)
 
-    def _pass(self, alpha: float, t_new: float) -> None:
+    def _pass(self, bdf, t_new: float) -> None:
         """One corrector pass: with the solution as the prediction of u^{n+1}, move the mesh to the
         predicted Ω^{n+1} (solid vertices s* + (δt/α) u, extension as in ``motion.move``), back-track from
         its quadrature points, linearise the solid stress around the predicted d^{n+1} = d* + (δt/α) u and
         solve again (the solver keeps its factorisation as the preconditioner). The configuration and the
         state's time levels stay those of the step."""
-        m, dt_a = self.motion, self.dt / alpha
+        m, dt_a = self.motion, self.dt / bdf.alpha
         with self.timers("mesh_motion"):
             self.u_predicted.x.array[:] = self._new_velocity()
             m._u_P1.interpolate(self.u_predicted)
@@ -71,7 +71,7 @@ class Characteristics(BdfStep):
         self.d_predicted.x.scatter_forward()
         self._reassemble(self.a_corrector)
         with self.timers("backtrack"):
-            self.histories.update(alpha, self.state, self.solve_displacement)
+            self.histories.update(bdf, self.state, self.solve_displacement)
         with self.timers("assemble_vector"):
             self._vector(self.L_corrector, self.a_corrector)
         self._solve(t_new)

@@ -55,6 +55,7 @@ class GeneralizedAlpha(TimeStep):
     """Generalised-α on the nodal values (module docstring)."""
 
     RATES = True
+    ORDER = 2
     NODAL_CONVECTION = True
 
     @staticmethod
@@ -123,17 +124,23 @@ class GeneralizedAlpha(TimeStep):
         return pulled_back_divergence(u, (1.0 - self.convection.fluid_cells) * self.d_to_end)
 
     # --------------------------------------------------------------------------------- one step
-    def advance(self, observe=None) -> None:
-        """t^n → t^{n+1}: place the mesh at t^{n+α_f}, solve, update the rates and d, move the mesh to
-        Ω^{n+1}. ``observe()`` is called after the solve, while the mesh is still the one solved on."""
+    def _attempt(self) -> None:
+        """Solve t^n → t^{n+1} of size ``self.dt``: place the mesh at t^{n+α_f} and solve (the state is not
+        changed)."""
         state, dt = self.state, self.dt
+        self.step_dt.value, self.inv_dt.value = dt, 1.0 / dt
         # the first step by backward Euler (α_m = α_f = γ = 1): it needs no u̇^0, whose error would stay
         # in u as O(δt) (u̇^0 = 0 is exact only from rest); its O(δt²) error is made once
         alpha_m, alpha_f, gamma = (1.0, 1.0, 1.0) if state.step_count == 0 else self.coefficients
         self.alpha_f.value = alpha_f
-        t_f, t_new = state.t + alpha_f * dt, (state.step_count + 1) * dt
+        t_f, t_new = state.t + alpha_f * dt, self._time_after_step()
+        self.t_new, self.step_coefficients = t_new, (alpha_m, alpha_f, gamma)
         u_n, u_prev = state.velocity.x.array.copy(), state.velocity_prev.x.array
-        u_pred = u_n if state.step_count == 0 else 2.0 * u_n - u_prev  # u^{n+1} predicted
+        self.u_n = u_n
+        last = state.steps.last
+        ratio = dt / last if last > 0.0 else 1.0
+        # u^{n+1} predicted: (1 + ω)u^n − ωu^{n−1} (2u^n − u^{n−1} at constant steps)
+        u_pred = u_n if state.step_count == 0 else (1.0 + ratio) * u_n - ratio * u_prev
         self.u_old.x.array[:] = u_n
         if self.omega_old is not None:
             self.omega_old.x.array[:] = state.micro_rotation.x.array
@@ -143,9 +150,9 @@ class GeneralizedAlpha(TimeStep):
             if target is not None:  # α h = ratio f^n − δt (1 − ratio) ḟ^n, α = ratio
                 target.x.array[:] = ratio * now.x.array - dt * (1.0 - ratio) * rate.x.array
         self.alpha.value = ratio
-        d_rate = None
+        self.d_rate = d_rate = None
         if self.d_star is not None:  # d^{n+α_f} = d* + k u^{n+1}
-            d_rate = state.displacement_rate.x.array
+            self.d_rate = d_rate = state.displacement_rate.x.array
             self.d_star.x.array[:] = state.displacement.x.array + alpha_f * dt * (
                 ((1.0 - gamma) - gamma * (1.0 - alpha_m) / alpha_m) * d_rate
                 + (gamma / alpha_m) * (1.0 - alpha_f) * u_n)
@@ -166,7 +173,13 @@ class GeneralizedAlpha(TimeStep):
             self._picard(alpha_f, t_new)
         for _ in range(self.solid_passes if state.step_count > 0 else 0):
             self._correct(alpha_f, t_f, t_new)
-        self._update_state(alpha_m, alpha_f, gamma, u_n, d_rate, t_new)
+
+    def _commit(self, observe=None) -> None:
+        """The attempted step becomes t^{n+1}: rates, levels, d, t; ``observe()`` while the mesh is still
+        the one solved on; then the mesh moves to Ω^{n+1}."""
+        state, dt = self.state, self.dt
+        self._update_state(*self.step_coefficients, self.u_n, self.d_rate, self.t_new)
+        state.steps.accepted(dt)
         if observe is not None:
             observe()
         if self.motion is not None:
@@ -177,6 +190,18 @@ class GeneralizedAlpha(TimeStep):
                 w_P1 = m.move(step, dt, state.t)
                 state.mesh_velocity.interpolate(w_P1)
                 self.histories.mesh_moved(rebuild=False)
+
+    def candidate_displacement(self):
+        """d^{n+1} at the solid's nodes (as :meth:`_update_state` will set it) of the attempted step, or None."""
+        if self.d_star is None:
+            return None
+        alpha_m, alpha_f, gamma = self.step_coefficients
+        dim, nodes = self.problem.mesh.geometry.dim, self.problem.solid_velocity_dofs
+        r = self.d_rate.reshape(-1, dim)[nodes]
+        u_f = (alpha_f * self._new_velocity().reshape(-1, dim)[nodes]
+               + (1.0 - alpha_f) * self.u_n.reshape(-1, dim)[nodes])
+        r_new = (u_f - (1.0 - alpha_m) * r) / alpha_m
+        return self.state.displacement.x.array.reshape(-1, dim)[nodes] + self.dt * ((1.0 - gamma) * r + gamma * r_new)
 
     def _update_state(self, alpha_m, alpha_f, gamma, u_n, d_rate, t_new):
         """The rates u̇^{n+1}, ω̇^{n+1}, the levels, ḋ^{n+1} and d^{n+1}, t^{n+1}."""
@@ -190,7 +215,7 @@ class GeneralizedAlpha(TimeStep):
         state.shift(self.solution, space)
         if self.d_star is not None:  # ḋ^{n+1} = (u^{n+α_f} − (1 − α_m) ḋ^n)/α_m on the solid, d^{n+1}
             dim, nodes = self.problem.mesh.geometry.dim, self.problem.solid_velocity_dofs
-            state.displacement_prev.x.array[:] = state.displacement.x.array
+            state.new_displacement_level()
             d, r = state.displacement.x.array.reshape(-1, dim), d_rate.reshape(-1, dim)
             u_new, u_old = state.velocity.x.array.reshape(-1, dim)[nodes], u_n.reshape(-1, dim)[nodes]
             u_f = alpha_f * u_new + (1.0 - alpha_f) * u_old

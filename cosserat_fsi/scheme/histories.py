@@ -1,7 +1,9 @@
 """The histories α·h of the characteristics schemes (seed §5.1) and the accelerations built from them.
 
 First order (seed): α = 1, h = u^n∘X^n with the feet x − δt (u^n − w)(x) (w the mesh velocity). BDF2:
-α = 3/2, α h = 2 u^n∘X¹ − ½ u^{n−1}∘X², feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1}; on a moving mesh the
+α = 3/2, α h = 2 u^n∘X¹ − ½ u^{n−1}∘X², feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1} at constant steps;
+with a step ratio ω the weights of variable_step.BdfWeights (α h = a₁u^n∘X¹ − a₂u^{n−1}∘X², the second
+foot x − (δt_n + δt_{n−1})u*, u* = (1 + ω)u^n − ωu^{n−1}); on a moving mesh the
 feet are located in the configurations u^n and u^{n−1} were computed on. α h lives at the quadrature points
 of the inertia terms (FreeFEM's ``convect``: the feet of the quadrature points, evaluated exactly); ω's
 at the P2 nodes instead with ``micropolar.nodal_characteristics``. The low-level point location and
@@ -52,30 +54,31 @@ class Histories:
         return (alpha * u - history) * inv_dt
 
     # ------------------------------------------------------------------------------------ update
-    def update(self, alpha: float, state: State, solve_displacement=None) -> None:
-        """Set α·h from ``state`` (first order, α = 1, or BDF2 feet). ``solve_displacement``: the P1 mesh
-        displacement of the configuration the step is solved on (BDF2 on a moving mesh)."""
+    def update(self, bdf, state: State, solve_displacement=None) -> None:
+        """Set α·h from ``state`` (``bdf``: the step's BdfWeights; first order, α = 1, or the BDF2 feet).
+        ``solve_displacement``: the P1 mesh displacement of the configuration the step is solved on (BDF2
+        on a moving mesh)."""
         chars, micro, degree = self.chars, self.micro, self.degree
         with_omega = micro and not self.omega_apart
         current = [state.velocity] + ([state.micro_rotation] if with_omega else [])
         previous = [state.velocity_prev] + ([state.micro_rotation_prev] if with_omega else [])
-        if alpha != 1.0 and self._compiled_bdf2(current, previous):
-            self._bdf2_quadrature(state, current, previous)
+        if bdf.order == 2 and self._compiled_bdf2(current, previous):
+            self._bdf2_quadrature(bdf, state, current, previous)
         else:
-            hist = self._values(alpha, degree, state, current, previous, solve_displacement)
+            hist = self._values(bdf, degree, state, current, previous, solve_displacement)
             _set_quadrature(self.velocity, hist[0])
             if with_omega:
                 _set_quadrature(self.micro_rotation, hist[1])
         if self.omega_apart:
-            values = self._values(alpha, None, state, [state.micro_rotation], [state.micro_rotation_prev],
+            values = self._values(bdf, None, state, [state.micro_rotation], [state.micro_rotation_prev],
                                   solve_displacement)[0]
             self.micro_rotation.x.array[:] = chars.to_S(values).ravel()
             self.micro_rotation.x.scatter_forward()
 
-    def _values(self, alpha, degree, state, fns_n, fns_nm1, solve_displacement) -> list:
+    def _values(self, bdf, degree, state, fns_n, fns_nm1, solve_displacement) -> list:
         """α·h of ``fns_n`` (and ``fns_nm1`` for BDF2) at the quadrature points of ``degree`` in every
         cell, or at the local P2 nodes (``degree`` None)."""
-        chars, comm, dt = self.chars, self.comm, self.dt
+        chars, comm, dt, dt2 = self.chars, self.comm, bdf.dt, bdf.second_foot
         if degree:
             x, cells = chars.quadrature_nodes(degree)
 
@@ -86,13 +89,13 @@ class Histories:
 
             def at_x(f):
                 return chars.nodal(f)
-        if alpha == 1.0:
+        if bdf.order == 1:
             u_x = at_x(state.velocity)
             w_x = at_x(state.mesh_velocity) if self.moving else 0.0
             return self._at_feet(x, x - dt * _pad(u_x - w_x), fns_n, cells)
-        if not self.moving:  # BDF2: feet x − δt u*, x − 2δt u*, u* = 2u^n − u^{n−1} (coefficientwise)
-            u_star = _pad(at_x(self._extrapolated(state)))
-            feet1, feet2 = x - dt * u_star, x - 2.0 * dt * u_star
+        if not self.moving:  # BDF2: feet x − δt u*, x − (δt_n + δt_{n−1}) u*, u* = (1 + ω)u^n − ωu^{n−1}
+            u_star = _pad(at_x(self._extrapolated(bdf, state)))
+            feet1, feet2 = x - dt * u_star, x - dt2 * u_star
             vals1 = self._at_feet(x, feet1, fns_n, cells)
             vals2 = self._at_feet(x, feet2, fns_nm1, cells)
         else:
@@ -107,11 +110,11 @@ class Histories:
                           for loc, disp in ((loc_n, state.configuration_n), (loc_nm1, state.configuration_nm1)))
             (un_x,) = evaluate(loc_n, [state.velocity], x, x_n, comm, hint=cells)
             (unm1_x,) = evaluate(loc_nm1, [state.velocity_prev], x, x_nm1, comm, hint=cells)
-            u_star = _pad(2.0 * un_x - unm1_x)
-            feet1, feet2 = x - dt * u_star, x - 2.0 * dt * u_star
+            u_star = _pad(bdf.extrapolated(un_x, unm1_x))
+            feet1, feet2 = x - dt * u_star, x - dt2 * u_star
             vals1 = evaluate(loc_n, fns_n, feet1, x_n, comm, hint=cells)
             vals2 = evaluate(loc_nm1, fns_nm1, feet2, x_nm1, comm, hint=cells)
-        return [2.0 * v1 - 0.5 * v2 for v1, v2 in zip(vals1, vals2)]
+        return [bdf.history(v1, v2) for v1, v2 in zip(vals1, vals2)]
 
     # ------------------------------------------------------------- BDF2 at the quadrature points, compiled
     def _compiled_bdf2(self, current, previous) -> bool:
@@ -124,12 +127,12 @@ class Histories:
         return (point_location.COMPILED and all(is_p2(loc, f) for f in current + previous)
                 and sizes(current) == sizes(previous) and sizes(current) in ([2], [2, 1]))
 
-    def _bdf2_quadrature(self, state: State, fns_n, fns_nm1) -> None:
+    def _bdf2_quadrature(self, bdf, state: State, fns_n, fns_nm1) -> None:
         """``_values`` + ``_set_quadrature`` of BDF2 at the quadrature points in one compiled pass
-        (``_kernels.bdf2_quadrature``: u*, the feet, both evaluations and 2v₁ − ½v₂ written straight into
+        (``_kernels.bdf2_quadrature``: u*, the feet, both evaluations and a₁v₁ − a₂v₂ written straight into
         the quadrature functions); the points whose walks fail (feet outside the local mesh, on other
         ranks, across a boundary) then take the general path (``evaluate``), which is collective."""
-        chars, degree, dt, comm = self.chars, self.degree, self.dt, self.comm
+        chars, degree, dt, comm = self.chars, self.degree, bdf.dt, self.comm
         x, cells = chars.quadrature_nodes(degree)
         loc = chars.locator
         loc_n, loc_nm1 = self.earlier_locators if self.moving else (loc, loc)
@@ -141,7 +144,7 @@ class Histories:
         w_n, w_nm1 = (fns_n[1].x.array, fns_nm1[1].x.array) if with_w else (fns_n[0].x.array,) * 2
         phi = reference_basis(degree)
         status, u_star = _kernels.bdf2_quadrature(
-            x, len(phi), phi, self.moving, dt,
+            x, len(phi), phi, self.moving, (dt, bdf.second_foot, bdf.a1, bdf.ratio, bdf.a1, bdf.a2),
             point_location._TOL, point_location._WALK_STEPS, (loc_n.x0, loc_n.Jinv_flat),
             (loc_nm1.x0, loc_nm1.Jinv_flat), loc.neighbours, dofs_u, fns_n[0].x.array, fns_nm1[0].x.array,
             dofs_w, w_n, w_nm1, with_w, qdofs[0], targets[0].x.array, qdofs[-1], targets[-1].x.array)
@@ -152,25 +155,25 @@ class Histories:
             lost = np.flatnonzero(status == 2)
             (un_x,) = evaluate(loc_n, [state.velocity], x[lost], x_n[lost], comm, hint=cells[lost])
             (unm1_x,) = evaluate(loc_nm1, [state.velocity_prev], x[lost], x_nm1[lost], comm, hint=cells[lost])
-            u_star[lost] = 2.0 * un_x - unm1_x
+            u_star[lost] = bdf.extrapolated(un_x, unm1_x)
         else:
             x_n = x_nm1 = x
         rest = np.flatnonzero(status)
         u_rest = _pad(u_star[rest])
-        feet1, feet2 = x[rest] - dt * u_rest, x[rest] - 2.0 * dt * u_rest
+        feet1, feet2 = x[rest] - dt * u_rest, x[rest] - bdf.second_foot * u_rest
         vals1 = evaluate(loc_n, fns_n, feet1, x_n[rest], comm, hint=cells[rest])
         vals2 = evaluate(loc_nm1, fns_nm1, feet2, x_nm1[rest], comm, hint=cells[rest])
         for f, dofs, v1, v2 in zip(targets, qdofs, vals1, vals2):
             bs = f.function_space.dofmap.index_map_bs
-            f.x.array.reshape(-1, bs)[dofs[rest]] = 2.0 * v1 - 0.5 * v2
+            f.x.array.reshape(-1, bs)[dofs[rest]] = bdf.history(v1, v2)
 
-    def _extrapolated(self, state: State):
-        """u* = 2u^n − u^{n−1} as a P2 function (coefficient by coefficient; the compiled BDF2 pass
+    def _extrapolated(self, bdf, state: State):
+        """u* = (1 + ω)u^n − ωu^{n−1} as a P2 function (coefficient by coefficient; the compiled BDF2 pass
         combines the coefficients the same way)."""
         u_star = self.__dict__.get("_u_star")
         if u_star is None:
             u_star = self._u_star = dolfinx.fem.Function(state.velocity.function_space)
-        u_star.x.array[:] = 2.0 * state.velocity.x.array - state.velocity_prev.x.array
+        u_star.x.array[:] = bdf.extrapolated(state.velocity.x.array, state.velocity_prev.x.array)
         return u_star
 
     def _quadrature_dofs(self, f) -> np.ndarray:

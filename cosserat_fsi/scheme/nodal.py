@@ -27,13 +27,13 @@ class NodalHistories:
         self.dx_inertia = ufl.dx(domain=mesh)
         self.locator = PointLocator(mesh)
 
-    def update(self, alpha: float, state, solve_displacement=None) -> None:
-        """α h = u^n (α = 1) or 2u^n − ½u^{n−1} node by node: the values the mesh's nodes carried at t^n
-        and t^{n−1}."""
+    def update(self, bdf, state, solve_displacement=None) -> None:
+        """α h = u^n (first order) or a₁u^n − a₂u^{n−1} (``bdf``: BdfWeights; 2u^n − ½u^{n−1} at constant
+        steps) node by node: the values the mesh's nodes carried at t^n and t^{n−1}."""
         for target, now, before in ((self.velocity, state.velocity, state.velocity_prev),
                                     (self.micro_rotation, state.micro_rotation, state.micro_rotation_prev)):
             if target is not None:
-                target.x.array[:] = now.x.array if alpha == 1.0 else 2.0 * now.x.array - 0.5 * before.x.array
+                target.x.array[:] = bdf.history(now.x.array, before.x.array)
 
     def mesh_moved(self, rebuild: bool = False) -> None:
         """The mesh moved: the locator follows (no earlier configurations are needed)."""

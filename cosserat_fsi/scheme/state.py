@@ -29,10 +29,13 @@ class State:
     None): ``mesh_displacement_prev`` (D^{n−1}), ``configuration_n`` and ``configuration_nm1`` (the mesh
     displacements of the configurations u^n and u^{n−1} were computed on). With ``rates``
     (generalised-α): ``velocity_rate``, ``micro_rotation_rate`` (u̇^n, ω̇^n of the nodal values) and
-    ``displacement_rate`` (ḋ^n), else None. ``t`` and ``step_count``.
+    ``displacement_rate`` (ḋ^n), else None. ``t`` and ``step_count``. ``steps``: the step sizes (t^n − t^{n−1},
+    t^{n−1} − t^{n−2}) and the step controller's state (time_control.py), in the checkpoint as ``steps``. With
+    ``adaptive`` (``time.tolerance``): ``velocity_prev2`` and ``displacement_prev2`` (u^{n−2}, d^{n−2}: the
+    error estimate's predictor), else None.
     """
 
-    def __init__(self, problem: Problem, order: int, motion=None, rates: bool = False):
+    def __init__(self, problem: Problem, order: int, motion=None, rates: bool = False, adaptive: bool = False):
         sp, model = problem.space, problem.model
         self.order, self.motion = order, motion
         V = sp.space("velocity")
@@ -48,6 +51,9 @@ class State:
         if model.solid:
             self.displacement = dolfinx.fem.Function(V, name="displacement")
             self.displacement_prev = dolfinx.fem.Function(V)
+        self.velocity_prev2 = dolfinx.fem.Function(V) if adaptive else None
+        self.displacement_prev2 = dolfinx.fem.Function(V) if adaptive and model.solid else None
+        self.steps = StepSizes()
         self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
         # generalised-α (``rates``): the time derivatives u̇^n, ω̇^n of the nodal values and ḋ^n of d
         self.velocity_rate = self.micro_rotation_rate = self.displacement_rate = None
@@ -76,9 +82,10 @@ class State:
             fns.update(omega_n=self.micro_rotation, omega_nm1=self.micro_rotation_prev)
         if self.displacement is not None:
             fns["d_n"] = self.displacement
-            if self.order == 2:
+            if self.order == 2 or self.displacement_prev2 is not None:
                 fns["d_nm1"] = self.displacement_prev
-        for name, f in (("udot_n", self.velocity_rate), ("omegadot_n", self.micro_rotation_rate),
+        for name, f in (("u_nm2", self.velocity_prev2), ("d_nm2", self.displacement_prev2),
+                        ("udot_n", self.velocity_rate), ("omegadot_n", self.micro_rotation_rate),
                         ("ddot_n", self.displacement_rate)):
             if f is not None:
                 fns[name] = f
@@ -93,12 +100,20 @@ class State:
         """New time level: the previous levels take the current values, the current ones ``solution``
         (the mixed Function of ``space``)."""
         x = solution.x.array
+        if self.velocity_prev2 is not None:
+            self.velocity_prev2.x.array[:] = self.velocity_prev.x.array
         self.velocity_prev.x.array[:] = self.velocity.x.array
         self.velocity.x.array[:] = x[space.dofs("velocity")]
         self.pressure.x.array[:] = x[space.dofs("pressure")]
         if self.micro_rotation is not None:
             self.micro_rotation_prev.x.array[:] = self.micro_rotation.x.array
             self.micro_rotation.x.array[:] = x[space.dofs("micro_rotation")]
+
+    def new_displacement_level(self) -> None:
+        """d^{n−1} (and d^{n−2}) take the earlier levels before d^{n+1} is written into ``displacement``."""
+        if self.displacement_prev2 is not None:
+            self.displacement_prev2.x.array[:] = self.displacement_prev.x.array
+        self.displacement_prev.x.array[:] = self.displacement.x.array
 
     def from_mixed(self, w, space) -> None:
         """Set u, p (and ω) from the mixed Function ``w`` of ``space`` (no new time level)."""
@@ -136,7 +151,7 @@ class State:
     def checkpoint(self) -> dict[str, np.ndarray]:
         """This rank's owned dofs keyed by their reference coordinates (+ t, step_count); copies, so the
         checkpoint does not follow the run on."""
-        out = {"t": np.array(self.t), "step_count": np.array(self.step_count)}
+        out = {"t": np.array(self.t), "step_count": np.array(self.step_count), "steps": self.steps.as_array()}
         for name, f in self.functions().items():
             n = f.function_space.dofmap.index_map.size_local
             bs = f.function_space.dofmap.index_map_bs
@@ -165,6 +180,8 @@ class State:
                 raise InputError(f"--restart: checkpoint field {name!r} does not fit this mesh") from None
             f.x.array[:] = values.ravel()
         self.t, self.step_count = float(states[0]["t"]), int(states[0]["step_count"])
+        if "steps" in states[0]:
+            self.steps = StepSizes.from_array(states[0]["steps"])
 
     # ------------------------------------------------------------------------------ transfer
     def transfer_to(self, other: State,
@@ -179,4 +196,35 @@ class State:
             raise ValueError(f"transfer between different states: {sorted(set(mine) ^ set(theirs))}")
         for name, f in mine.items():
             interpolate(theirs[name], f)
-        other.t, other.step_count = self.t, self.step_count
+        other.t, other.step_count, other.steps = self.t, self.step_count, self.steps.copy()
+
+
+class StepSizes:
+    """The step sizes behind t^n and the step controller's memory (all plain floats, kept in checkpoints).
+
+    ``last`` = t^n − t^{n−1}, ``before`` = t^{n−1} − t^{n−2} (0 until there are such levels); ``next``: the
+    size the controller proposes for the coming step (0: the scene's ``time.dt``); ``error``: the last
+    accepted step's scaled error estimate (0: none yet); ``rejected``: the steps rejected so far;
+    ``smallest``/``largest``: the range of the accepted steps."""
+
+    FIELDS = ("last", "before", "next", "error", "rejected", "smallest", "largest")
+
+    def __init__(self, values=None):
+        for name, value in zip(self.FIELDS, values if values is not None else [0.0] * len(self.FIELDS)):
+            setattr(self, name, float(value))
+
+    def accepted(self, dt: float) -> None:
+        """A step of size ``dt`` was taken."""
+        self.before, self.last = self.last, dt
+        self.smallest = dt if self.smallest == 0.0 else min(self.smallest, dt)
+        self.largest = max(self.largest, dt)
+
+    def as_array(self) -> np.ndarray:
+        return np.array([getattr(self, name) for name in self.FIELDS])
+
+    @classmethod
+    def from_array(cls, values) -> StepSizes:
+        return cls(list(np.asarray(values, dtype=float)) + [0.0] * (len(cls.FIELDS) - len(values)))
+
+    def copy(self) -> StepSizes:
+        return StepSizes(self.as_array())

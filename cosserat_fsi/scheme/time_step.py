@@ -6,7 +6,10 @@ class behind the interface the loop (Simulation) calls:
 - ``create(problem, state, boundary, motion, timers, comm)``: the scheme of a scene, with its histories and
   linear solver; ``levels(time)`` and ``RATES``: the earlier levels and the rates the State keeps (and so
   checkpoints);
-- ``advance(observe)``: one step t^n → t^{n+1}, ``observe()`` called after the solve on the mesh solved on;
+- ``advance(observe)``: one step t^n → t^{n+1}, ``observe()`` called after the solve on the mesh solved on
+  (a scheme implements ``_attempt()``, the solve of a step of size ``dt`` that leaves the state as it was,
+  and ``_commit(observe)``; with ``time.tolerance`` an attempt the error control rejects is tried again
+  with a smaller step, time_control.py);
 - ``acceleration(u)``: the scheme's material acceleration (the residual forces of the observables),
   ``dx_inertia``, ``split_solution()``, ``solution``, ``space``, ``locator``;
 - ``restored()`` after a restore or a remesh, ``check()`` after the run, ``report`` (Newton's, steady).
@@ -24,6 +27,7 @@ from .. import compat
 from ..errors import DivergenceError
 from ..timers import Timers
 from .linear_solver import LinearSolver
+from .time_control import TimeControl
 
 import dolfinx
 import dolfinx.fem.petsc as fem_petsc
@@ -41,6 +45,7 @@ class TimeStep:
     the inertia measure), build ``a_form``/``L_form`` with :meth:`_forms` and implement ``advance``."""
 
     RATES = False  # the State keeps u̇, ω̇, ḋ (generalised-α)
+    ORDER = 0  # the order of accuracy in δt (0: that of ``levels``)
     NODAL_CONVECTION = False  # the convection is in the matrix (the matrix changes every step)
     report = None  # a Newton report (steady solvers)
 
@@ -69,7 +74,9 @@ class TimeStep:
         self.problem, self.state, self.boundary, self.histories = problem, state, boundary, histories
         self.solver, self.motion, self.comm = solver, motion, comm
         self.timers = timers if timers is not None else Timers()
-        self.dt = float(scene.time.dt)
+        self.dt = float(scene.time.dt)  # the size of the step being taken
+        self.control = TimeControl.of(scene.time, self.ORDER if self.ORDER else self.levels(scene.time), comm)
+        self.fixed_step = self.control is None  # every step time.dt (t^n = nδt)
         mesh = problem.mesh
         self.alpha = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
         self.inv_dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0 / self.dt))
@@ -81,6 +88,47 @@ class TimeStep:
         self.u_old = self.omega_old = None  # u^n, ω^n of the step where the stresses are evaluated between levels
 
     # ------------------------------------------------------------------------ the interface
+    def advance(self, observe=None, dt: float | None = None) -> None:
+        """One step t^n → t^{n+1} (module docstring): of size ``dt`` if given (the controller is not asked),
+        else with ``time.tolerance`` the step size the controller proposes, attempted until its error estimate
+        is accepted (a non-finite solution counts as a rejection), else ``time.dt``; ``observe()`` after the
+        solve, on the mesh solved on."""
+        control = self.control
+        if dt is not None:
+            self.dt, self.fixed_step = float(dt), False
+        if control is None or dt is not None:
+            self._attempt()
+            self._commit(observe)
+            return
+        while True:
+            self.dt = control.proposal(self.state)
+            try:
+                self._attempt()
+                error = control.error(self)
+            except DivergenceError as exc:
+                error, failure = np.inf, exc
+            else:
+                failure = None
+            if control.judge(self.state, self.dt, error, failure):
+                break
+            self._rejected()
+        self._commit(observe)
+
+    def _time_after_step(self) -> float:
+        """t^{n+1}: (n + 1)δt with a fixed step (no accumulated rounding), else t^n + δt."""
+        if self.fixed_step:
+            return (self.state.step_count + 1) * self.dt
+        if self.control is None:
+            return self.state.t + self.dt
+        return self.control.time_after(self.state, self.dt)
+
+    def _rejected(self) -> None:
+        """After a rejected attempt: the mesh back at Ω^n (the next attempt places it where it solves)."""
+        if self.motion is not None:
+            m = self.motion
+            m.place(m.displacement.x.array, self.state.t)
+            self.histories.mesh_moved(rebuild=False)
+
     @property
     def space(self):
         return self.problem.space

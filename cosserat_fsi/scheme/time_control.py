@@ -1,0 +1,139 @@
+"""``time.tolerance``: the step size chosen from an embedded error estimate (variable_step.py).
+
+Each attempted step's error is estimated from its solution and the explicit predictor (Milne's device) for
+the velocity and, in the solid, the displacement, in a weighted RMS norm
+
+    E = RMS_i( e_i / (|f_i| + floor · max_j |f_j|) ) / tol^{(p+1)/p},
+
+over every owned dof of u (and of d at the solid's nodes; a global reduction, so every rank decides the
+same), with ``floor`` = ``time.error_floor`` (the absolute floor, relative to the field's largest value) and
+p the scheme's order. The per-step tolerance tol^{(p+1)/p} makes the delivered error proportional to tol
+(tolerance proportionality: with an error per step held at τ, δt ∝ τ^{1/(p+1)} and the global error
+∝ δt^p = τ^{p/(p+1)}). E ≤ 1 accepts the step; the next one is δt·min(2, max(0.2, 0.9 E^{−0.7/k}
+E_prev^{0.4/k})), k = p + 1 (the PI controller of Gustafsson; Hairer & Wanner IV.2), kept unchanged when the
+factor is between 1 and 1.2 (a fixed mesh's matrix is then refactorised only for a real change) and within
+[``dt_min``, ``dt_max``]. E > 1 (or a non-finite solution) rejects it: it is tried again from the same state
+with δt·max(0.2, 0.9 E^{−1/k}) (0.25 after a non-finite solution), not below ``dt_min``; a step rejected at
+``dt_min`` stops the run (DivergenceError: exit 3). The first p steps take ``time.dt``: the predictor needs
+p + 1 earlier levels. The last step ends at ``t_end``.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from mpi4py import MPI
+
+from ..errors import DivergenceError
+from .variable_step import estimate_factor, predicted
+
+log = logging.getLogger("cosserat_fsi")
+
+SAFETY, GROWTH, SHRINK, KEEP = 0.9, 2.0, 0.2, 1.2
+
+
+class TimeControl:
+    """The step size controller of one run (module docstring); its memory lives in ``state.steps``."""
+
+    def __init__(self, time, order: int, comm):
+        self.tolerance, self.order, self.comm = float(time.tolerance), order, comm
+        self.dt0, self.t_end = float(time.dt), float(time.t_end)
+        self.dt_min = float(time.dt_min) if time.dt_min is not None else 1e-3 * self.dt0
+        self.dt_max = float(time.dt_max) if time.dt_max is not None else np.inf
+        self.floor = float(time.error_floor)
+        self.step_tolerance = self.tolerance ** ((order + 1.0) / order)
+        self._rejected_now = False
+
+    @classmethod
+    def of(cls, time, order: int, comm) -> TimeControl | None:
+        """The controller of the scene's ``time`` section, or None for a fixed step."""
+        return cls(time, order, comm) if getattr(time, "tolerance", None) is not None else None
+
+    def describe(self) -> str:
+        """One line for run.log."""
+        return (f"adaptive step: time.tolerance {self.tolerance:g} (per step {self.step_tolerance:.3g}, order "
+                f"{self.order}), error floor {self.floor:g} of the largest value, first step {self.dt0:g}, "
+                f"dt_min {self.dt_min:g}, dt_max {self.dt_max:g}")
+
+    # ---------------------------------------------------------------------------------- steps
+    def proposal(self, state) -> float:
+        """The size of the coming step: the controller's, within [dt_min, dt_max], ending at t_end."""
+        dt = min(state.steps.next or self.dt0, self.dt_max)
+        remaining = self.t_end - state.t
+        return remaining if dt >= remaining * (1.0 - 1e-9) else dt
+
+    def time_after(self, state, dt: float) -> float:
+        """t^n + δt (t_end exactly for the last step)."""
+        t = state.t + dt
+        return self.t_end if abs(t - self.t_end) <= 1e-9 * max(1.0, abs(self.t_end)) else t
+
+    def finished(self, state) -> bool:
+        return self.t_end - state.t <= 1e-9 * max(1.0, abs(self.t_end))
+
+    # -------------------------------------------------------------------------------- the estimate
+    def error(self, stepper) -> float | None:
+        """E of the attempted step (module docstring), or None while there are too few levels."""
+        state, order = stepper.state, self.order
+        if state.step_count < order:
+            return None
+        steps, dt = state.steps, stepper.dt
+        factor = estimate_factor(order, dt, steps.last, steps.before)
+        V = state.velocity.function_space
+        owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+        levels = [state.velocity, state.velocity_prev, state.velocity_prev2]
+        u_new = stepper._new_velocity()[:owned]
+        parts = [(u_new, predicted(order, dt, steps.last, steps.before,
+                                   *[f.x.array[:owned] if f is not None else None for f in levels]))]
+        d_new = stepper.candidate_displacement()
+        if d_new is not None:
+            nodes = stepper.problem.solid_velocity_dofs
+            mine = nodes < V.dofmap.index_map.size_local
+            dim = d_new.shape[1]
+
+            def at_nodes(f):
+                return None if f is None else f.x.array.reshape(-1, dim)[nodes[mine]].ravel()
+            parts.append((d_new[mine].ravel(), predicted(order, dt, steps.last, steps.before, *map(
+                at_nodes, (state.displacement, state.displacement_prev, state.displacement_prev2)))))
+        sums = np.zeros(2 * len(parts))
+        scales = self.comm.allreduce(np.array([np.abs(new).max(initial=0.0) for new, _ in parts]), op=MPI.MAX)
+        for i, ((new, guess), scale) in enumerate(zip(parts, scales)):
+            weight = np.abs(new) + self.floor * scale
+            ratio = np.divide(factor * (new - guess), weight, out=np.zeros_like(new), where=weight > 0.0)
+            sums[2 * i:2 * i + 2] = (ratio @ ratio, len(new))
+        sums = self.comm.allreduce(sums, op=MPI.SUM)
+        total, count = sums[0::2].sum(), sums[1::2].sum()
+        return float(np.sqrt(total / max(count, 1.0))) / self.step_tolerance
+
+    def judge(self, state, dt: float, error: float | None, failure: DivergenceError | None = None) -> bool:
+        """Accept (True: ``state.steps.next`` set) or reject (False: a smaller ``next``) the attempted step;
+        DivergenceError when a step at ``dt_min`` is rejected."""
+        steps, k = state.steps, self.order + 1.0
+        if failure is None and error is None:  # no estimate yet: the first steps keep time.dt
+            steps.next, self._rejected_now = dt, False
+            return True
+        if failure is None and error <= 1.0:
+            if error == 0.0:
+                factor = GROWTH
+            elif steps.error > 0.0:
+                factor = SAFETY * error ** (-0.7 / k) * steps.error ** (0.4 / k)
+            else:
+                factor = SAFETY * error ** (-1.0 / k)
+            factor = min(1.0 if self._rejected_now else GROWTH, max(SHRINK, factor))
+            if 1.0 <= factor < KEEP:
+                factor = 1.0
+            steps.next = min(max(dt * factor, self.dt_min), self.dt_max)
+            steps.error, self._rejected_now = max(error, 1e-12), False
+            return True
+        steps.rejected += 1
+        self._rejected_now = True
+        what = (f"a non-finite solution ({failure})" if failure is not None
+                else f"error estimate {error * self.step_tolerance:.3g} > {self.step_tolerance:.3g}")
+        if dt <= self.dt_min * (1.0 + 1e-9):
+            raise DivergenceError(f"t = {state.t:.6g}: a step of time.dt_min = {self.dt_min:g} is rejected "
+                                  f"({what}); the time.tolerance cannot be met: lower time.dt_min, or raise "
+                                  f"time.tolerance")
+        factor = 0.25 if failure is not None else max(SHRINK, SAFETY * error ** (-1.0 / k))
+        steps.next = max(dt * factor, self.dt_min)
+        log.debug("t = %.6g: step %.4g rejected (%s), retried with %.4g", state.t, dt, what, steps.next)
+        return False
