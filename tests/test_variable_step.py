@@ -131,10 +131,17 @@ def _flag_uy(scheme, sequence):
 @pytest.mark.slow
 @pytest.mark.parametrize("scheme", ["characteristics2", "ale_bdf2", "generalized_alpha"])
 def test_solid_order_on_a_random_step_sequence(scheme):
-    """The flag under a ramped gravity (no fluid, test_fsi.test_solid_time_order) on the random sequence:
-    d's update (eq. 28 with the variable weights), its base and the mesh follow; second order against a
-    constant-step reference at δt = 2.5e-4."""
-    ref = _flag_uy("characteristics2", np.full(1200, 0.00025))
+    """The flag under a ramped gravity (no fluid, test_fsi.test_solid_time_order) on the random sequence,
+    against the scheme's own run at δt = 2.5e-4: d's update (eq. 28 with the variable weights), its base and
+    the mesh follow. Measured (15, 30, 60 repeats of the pattern): characteristics2 rates ≈ 2; ale_bdf2
+    4.10e-5, 1.20e-5, 3.60e-6 (rates 1.77, 1.73; at constant steps of the same count 1.88, 1.84). Generalised-α
+    is first order on it (2.66e-5, 1.19e-5, 5.65e-6 against characteristics2's reference: rates 1.16, 1.07):
+    its rate u̇^n lags by a fraction of the step before, which a change of step turns into an O(δt) error,
+    so time.tolerance is refused with it."""
+    ref = _flag_uy(scheme, np.full(1200, 0.00025))
     errors = np.array([abs(_flag_uy(scheme, steps(n, 0.3)) - ref) for n in (15, 30, 60)])
     rates = np.log2(errors[:-1] / errors[1:])
-    assert np.all((rates > 1.7) & (rates < 3.2)), (errors, rates)
+    if scheme == "generalized_alpha":
+        assert np.all(rates < 1.4), (errors, rates)
+        return
+    assert np.all((rates > 1.65) & (rates < 3.2)), (errors, rates)

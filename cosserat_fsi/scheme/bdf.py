@@ -5,6 +5,8 @@ solid's displacement is linearised around d* = d^n (first order) or (4d^n − d^
 d^{n+1} = d* + (δt/α) u^{n+1} (eq. 28). On a moving mesh BDF2 solves on a configuration of its own: the BDF2
 base X + (4D^n − D^{n−1})/3 where d* lives, or (``EXTRAPOLATED_CONFIGURATION``) the extrapolation
 X + 2D^n − D^{n−1}, the nodes' places at t^{n+1} to O(δt²); the solid vertices then move on from the base.
+With steps of varying size (``time.tolerance``, or
+``Simulation.step(dt=...)``) the weights are those of the step ratio (variable_step.BdfWeights) everywhere.
 """
 
 from __future__ import annotations
