@@ -31,7 +31,7 @@ class _Stepping(_Section):
     tolerance: float | None = Field(default=None, gt=0, lt=1)
     dt_min: PositiveFloat | None = None
     dt_max: PositiveFloat | None = None
-    error_floor: float = Field(default=0.01, gt=0, le=1)
+    error_floor: float | None = Field(default=None, gt=0, le=1)
 
 
 class Characteristics1(_Stepping):

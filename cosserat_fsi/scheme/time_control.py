@@ -41,7 +41,7 @@ class TimeControl:
         self.dt0, self.t_end = float(time.dt), float(time.t_end)
         self.dt_min = float(time.dt_min) if time.dt_min is not None else 1e-3 * self.dt0
         self.dt_max = float(time.dt_max) if time.dt_max is not None else np.inf
-        self.floor = float(time.error_floor)
+        self.floor = float(time.error_floor) if time.error_floor is not None else 0.01
         self.step_tolerance = self.tolerance ** ((order + 1.0) / order)
         self._rejected_now = False
 
