@@ -7,6 +7,7 @@ from mpi4py import MPI
 from cosserat_fsi import compat
 from cosserat_fsi.geometry import SchaeferTurek, build_msh
 from cosserat_fsi.scheme import _kernels, point_location
+from cosserat_fsi.scheme.variable_step import BdfWeights
 from cosserat_fsi.scheme.back_tracking_nodes import BackTrackingNodes
 from cosserat_fsi.scheme.point_location import PointLocator, eval_at, evaluate, neighbour_table, probe
 
@@ -154,7 +155,7 @@ def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
         monkeypatch.setattr(point_location, "COMPILED", compiled)
         for f in (h.velocity, h.micro_rotation):
             f.x.array[:] = np.nan
-        h.update(1.5, stepper.state, stepper.solve_displacement)
+        h.update(BdfWeights(2, stepper.dt), stepper.state, stepper.solve_displacement)
         return [f.x.array.copy() for f in (h.velocity, h.micro_rotation)]
 
     ref, ours = history(False), history(True)
@@ -204,7 +205,7 @@ def test_feet_on_a_rotation(monkeypatch, compiled):
                                                (state.micro_rotation_prev, state.micro_rotation))):
                 now.interpolate(lambda X, comp=comp: X[comp])
                 before.x.array[:] = 0.0
-                h.update(1.5, state)
+                h.update(BdfWeights(2, dt), state)
                 feet[:, k, comp] = h.micro_rotation.x.array[qdofs] / (2.0 if k == 0 else -0.5)
         errors = []
         for k in (1, 2):

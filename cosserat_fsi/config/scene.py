@@ -207,9 +207,6 @@ def _check_step_control(time) -> None:
             if getattr(time, key) is not None:
                 raise ValueError(f"time.{key}: needs time.tolerance (a fixed step is time.dt)")
         return
-    if time.scheme == "generalized_alpha":
-        raise ValueError("time.tolerance: not with scheme generalized_alpha (its rates make it first order on a "
-                         "varying step: docs/performance.md); use ale_bdf2 or characteristics2")
     if time.dt_min is not None and time.dt_min > time.dt:
         raise ValueError(f"time.dt_min: must be <= time.dt, the first step (got {time.dt_min!r} > {time.dt!r})")
     if time.dt_max is not None and time.dt_max < time.dt:

@@ -139,6 +139,7 @@ class GeneralizedAlpha(TimeStep):
         self.u_n = u_n
         last = state.steps.last
         ratio = dt / last if last > 0.0 else 1.0
+        self._rates_before = self._shift_rates(dt) if state.step_count >= 2 and ratio != 1.0 else None
         # u^{n+1} predicted: (1 + ω)u^n − ωu^{n−1} (2u^n − u^{n−1} at constant steps)
         u_pred = u_n if state.step_count == 0 else (1.0 + ratio) * u_n - ratio * u_prev
         self.u_old.x.array[:] = u_n
@@ -191,6 +192,27 @@ class GeneralizedAlpha(TimeStep):
                 state.mesh_velocity.interpolate(w_P1)
                 self.histories.mesh_moved(rebuild=False)
 
+    def _shift_rates(self, dt: float) -> list:
+        """A step of another size than the last: the rates move to the new step's lag. The rate ḟ^n of
+        generalised-α approximates ḟ(t^n + (α_f − α_m) δt_{n−1}) (so that ḟ^{n+α_m} = ḟ(t^{n+α_f}) and
+        γ = ½ + α_m − α_f make the update second order); left there, a step of another size makes an O(δt)
+        error each time (first order on a varying step). ḟ^n += (α_f − α_m)(δt_n − δt_{n−1}) f̈, with f̈ from
+        the rates of the last two steps. Returns the rates as they were (a rejected attempt puts them back)."""
+        state = self.state
+        alpha_m, alpha_f, _ = self.coefficients
+        last = state.steps.last
+        before = [(f, f.x.array.copy()) for f in state.rates()]
+        for f in state.rates():
+            previous = state.rates_prev[id(f)].x.array
+            f.x.array[:] += (alpha_f - alpha_m) * (dt - last) / last * (f.x.array - previous)
+        return before
+
+    def _rejected(self) -> None:
+        if self._rates_before is not None:
+            for f, values in self._rates_before:
+                f.x.array[:] = values
+        super()._rejected()
+
     def candidate_displacement(self):
         """d^{n+1} at the solid's nodes (as :meth:`_update_state` will set it) of the attempted step, or None."""
         if self.d_star is None:
@@ -207,6 +229,8 @@ class GeneralizedAlpha(TimeStep):
         """The rates u̇^{n+1}, ω̇^{n+1}, the levels, ḋ^{n+1} and d^{n+1}, t^{n+1}."""
         state, dt = self.state, self.dt
         x, space = self.solution.x.array, self.problem.space
+        for f in state.rates():  # the rates of this step, for the next one's change of step
+            state.rates_prev[id(f)].x.array[:] = f.x.array
         for rate, now, name in ((state.velocity_rate, state.velocity, "velocity"),
                                 (state.micro_rotation_rate, state.micro_rotation, "micro_rotation")):
             if rate is not None:  # u̇^{n+1} = (u^{n+1} − u^n)/(γδt) − (1 − γ)/γ u̇^n

@@ -29,8 +29,8 @@ class State:
     None): ``mesh_displacement_prev`` (D^{n−1}), ``configuration_n`` and ``configuration_nm1`` (the mesh
     displacements of the configurations u^n and u^{n−1} were computed on). With ``rates``
     (generalised-α): ``velocity_rate``, ``micro_rotation_rate`` (u̇^n, ω̇^n of the nodal values) and
-    ``displacement_rate`` (ḋ^n), else None. ``t`` and ``step_count``. ``steps``: the step sizes (t^n − t^{n−1},
-    t^{n−1} − t^{n−2}) and the step controller's state (time_control.py), in the checkpoint as ``steps``. With
+    ``displacement_rate`` (ḋ^n), else None, and ``rates_prev`` (each rate's value of the step before).
+    ``t`` and ``step_count``. ``steps``: the step sizes (t^n − t^{n−1}, t^{n−1} − t^{n−2}) and the step controller's state (time_control.py), in the checkpoint as ``steps``. With
     ``adaptive`` (``time.tolerance``): ``velocity_prev2`` and ``displacement_prev2`` (u^{n−2}, d^{n−2}: the
     error estimate's predictor), else None.
     """
@@ -57,12 +57,14 @@ class State:
         self.mesh_velocity = dolfinx.fem.Function(V, name="mesh_velocity")
         # generalised-α (``rates``): the time derivatives u̇^n, ω̇^n of the nodal values and ḋ^n of d
         self.velocity_rate = self.micro_rotation_rate = self.displacement_rate = None
+        self.rates_prev = {}  # id(rate) -> the rate's value of the step before (a varying step's correction)
         if rates:
             self.velocity_rate = dolfinx.fem.Function(V)
             if model.micro_rotation:
                 self.micro_rotation_rate = dolfinx.fem.Function(sp.space("micro_rotation"))
             if model.solid:
                 self.displacement_rate = dolfinx.fem.Function(V)
+            self.rates_prev = {id(f): dolfinx.fem.Function(f.function_space) for f in self.rates()}
         self.mesh_displacement_prev = self.configuration_n = self.configuration_nm1 = None
         if motion is not None and order == 2:
             self.mesh_displacement_prev = dolfinx.fem.Function(motion.M)
@@ -89,6 +91,8 @@ class State:
                         ("ddot_n", self.displacement_rate)):
             if f is not None:
                 fns[name] = f
+                if id(f) in self.rates_prev:
+                    fns[name.replace("_n", "_nm1")] = self.rates_prev[id(f)]
         if self.configuration_n is not None:
             fns.update(mesh_displacement_prev=self.mesh_displacement_prev,
                        mesh_displacement_n=self.configuration_n, mesh_displacement_nm1=self.configuration_nm1)
@@ -108,6 +112,10 @@ class State:
         if self.micro_rotation is not None:
             self.micro_rotation_prev.x.array[:] = self.micro_rotation.x.array
             self.micro_rotation.x.array[:] = x[space.dofs("micro_rotation")]
+
+    def rates(self) -> list:
+        """The rates u̇^n, ω̇^n, ḋ^n the State keeps (generalised-α), in that order."""
+        return [f for f in (self.velocity_rate, self.micro_rotation_rate, self.displacement_rate) if f is not None]
 
     def new_displacement_level(self) -> None:
         """d^{n−1} (and d^{n−2}) take the earlier levels before d^{n+1} is written into ``displacement``."""
