@@ -30,9 +30,10 @@ class State:
     displacements of the configurations u^n and u^{n−1} were computed on). With ``rates``
     (generalised-α): ``velocity_rate``, ``micro_rotation_rate`` (u̇^n, ω̇^n of the nodal values) and
     ``displacement_rate`` (ḋ^n), else None, and ``rates_prev`` (each rate's value of the step before).
-    ``t`` and ``step_count``. ``steps``: the step sizes (t^n − t^{n−1}, t^{n−1} − t^{n−2}) and the step controller's state (time_control.py), in the checkpoint as ``steps``. With
-    ``adaptive`` (``time.tolerance``): ``velocity_prev2`` and ``displacement_prev2`` (u^{n−2}, d^{n−2}: the
-    error estimate's predictor), else None.
+    ``t`` and ``step_count``. ``steps``: the step sizes (t^n − t^{n−1}, t^{n−1} − t^{n−2}) and the step
+    controller's state (time_control.py), in the checkpoint as ``steps``. With ``adaptive``
+    (``time.tolerance``): ``velocity_prev2`` and ``displacement_prev2`` (u^{n−2}, d^{n−2}: the error
+    estimate's predictor), else None.
     """
 
     def __init__(self, problem: Problem, order: int, motion=None, rates: bool = False, adaptive: bool = False):
