@@ -15,7 +15,9 @@ factor is between 1 and 1.2 (a fixed mesh's matrix is then refactorised only for
 [``dt_min``, ``dt_max``]. E > 1 (or a non-finite solution) rejects it: it is tried again from the same state
 with δt·max(0.2, 0.9 E^{−1/k}) (0.25 after a non-finite solution), not below ``dt_min``; a step rejected at
 ``dt_min`` stops the run (DivergenceError: exit 3). The first p steps take ``time.dt``: the predictor needs
-p + 1 earlier levels. The last step ends at ``t_end``.
+p + 1 earlier levels. The last step ends at ``t_end``. Generalised-α is estimated as BDF2 (the same predictor
+and constant; its own local error constant depends on ρ∞), its rates moved to each new step's lag
+(generalized_alpha.py ``_shift_rates``).
 """
 
 from __future__ import annotations
