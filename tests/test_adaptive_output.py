@@ -86,7 +86,7 @@ def test_status_line_tells_how_the_run_stepped(time, expected):
 def test_progress_bar_counts_simulated_time_with_a_tolerance(capsys):
     from types import SimpleNamespace
 
-    from cosserat_fsi.app.runner import _advance, _progress_bar
+    from cosserat_fsi.app.progress import advance as _advance, progress_bar as _progress_bar
 
     sim = SimpleNamespace(t=0.0, step_count=0, state=SimpleNamespace(steps=SimpleNamespace(last=0.0)))
     bar = _progress_bar(40, True, t_end=2.0)
@@ -158,3 +158,114 @@ def test_plot_has_a_step_size_panel(adaptive_run, tmp_path):
     plt.close(fixed["flow"])
     made = plot_timeseries(adaptive_run, tmp_path)
     assert sorted(p.name for p in made) == ["flow.png", "steps.png"] and (tmp_path / "steps.png").stat().st_size > 1000
+
+
+TG = "configs/micropolar_taylor_green.yaml"
+
+
+def _tg_study(tmp_path, repo_root, extra=""):
+    path = tmp_path / "s.yaml"
+    path.write_text(f"name: tg\nconfig: {repo_root / TG}\nobservables: [velocity, micro_rotation]\n"
+                    "base: {geometry.level: 0, time.t_end: 0.2}\n"
+                    "ladder: {geometry.level: [0, 1], time.dt: [0.1, 0.05]}\ntolerances: [0.01, 0.001]\n" + extra)
+    return path
+
+
+def test_tolerances_are_a_ladder_beside_time_dt(tmp_path, repo_root):
+    """Every ladder point without its time.dt, at each tolerance (after the fixed-step ladder, before extra)."""
+    from cosserat_fsi.app.study import _combinations, load_study
+
+    study = load_study(_tg_study(tmp_path, repo_root, "extra: {fine: {time.dt: 0.025}}\n"))
+    runs = _combinations(study)
+    assert [run_id for _, run_id in runs] == [
+        "level0-dt0.1", "level0-dt0.05", "level1-dt0.1", "level1-dt0.05", "level0-tolerance0.01",
+        "level0-tolerance0.001", "level1-tolerance0.01", "level1-tolerance0.001", "fine"]
+    assert runs[5][0] == {"geometry.level": 0, "time.t_end": 0.2, "time.tolerance": 0.001}
+
+
+@pytest.mark.parametrize("bad, expected", [("0", "tolerances.1: input should be greater than 0"),
+                                           ("1.5", "tolerances.1: input should be less than 1")])
+def test_bad_tolerance_ladder_is_one_line(tmp_path, repo_root, bad, expected):
+    from cosserat_fsi.app.study import load_study
+    from cosserat_fsi.errors import InputError
+
+    path = _tg_study(tmp_path, repo_root)
+    path.write_text(path.read_text().replace("tolerances: [0.01, 0.001]", f"tolerances: [0.01, {bad}]"))
+    with pytest.raises(InputError) as info:
+        load_study(path)
+    assert "\n" not in str(info.value) and expected in str(info.value), str(info.value)
+
+
+def test_tolerances_with_a_tolerance_ladder_are_refused(tmp_path, repo_root):
+    from cosserat_fsi.app.study import load_study
+    from cosserat_fsi.errors import InputError
+
+    path = _tg_study(tmp_path, repo_root)
+    path.write_text(path.read_text().replace("time.dt: [0.1, 0.05]", "time.tolerance: [0.1]"))
+    with pytest.raises(InputError, match="tolerances: not with a ladder of time.tolerance"):
+        load_study(path)
+
+
+def _fake_run(folder, wall, error, tolerance=None):
+    folder.mkdir(parents=True)
+    time = {"dt": 0.1, "scheme": "characteristics2", "steps": 4, "t_final": 0.2}
+    if tolerance is not None:
+        time |= {"tolerance": tolerance, "rejected_steps": 1, "dt_smallest": 0.01, "dt_largest": 0.1}
+    (folder / "summary.json").write_text(json.dumps({
+        "status": "completed", "time": time, "mesh": {"vertices": 81}, "dofs": {"total": 1000},
+        "wall_time": {"total": wall, "per_step": wall / 4, "phases": {}}, "memory": {"peak_rss_mib_sum": 100},
+        "benchmark": {"name": "micropolar_taylor_green", "velocity": {"error": error},
+                      "micro_rotation": {"error": error / 2}}}))
+
+
+def test_report_has_a_front_per_group(tmp_path, repo_root):
+    """Fixed-δt and tolerance runs: each group's own Pareto front, in the report and as two labelled series
+    of the plot (a dominated run of one group stays on its group's front if only the other group beats it)."""
+    import matplotlib.pyplot as plt
+
+    from cosserat_fsi.app.study import _combinations, fronts, load_study, pareto_figure, write_report
+
+    study = load_study(_tg_study(tmp_path, repo_root))
+    runs = tmp_path / "out" / "runs" / "study-tg"
+    made = {"level0-dt0.1": (1.0, 0.1), "level0-dt0.05": (2.0, 0.05), "level1-dt0.1": (3.0, 0.08),
+            "level1-dt0.05": (4.0, 0.01), "level0-tolerance0.01": (1.5, 0.02), "level0-tolerance0.001": (2.5, 0.004),
+            "level1-tolerance0.01": (3.5, 0.03)}  # level1-tolerance0.001: not run
+    for run_id, (wall, error) in made.items():
+        _fake_run(runs / run_id, wall, error, 0.01 if "tolerance" in run_id else None)
+    todo = [(o, runs / run_id) for o, run_id in _combinations(study)]
+    report = write_report(study, todo, tmp_path / "out").read_text()
+    assert ("Pareto front, fixed δt (no other such run is both faster and more accurate): `level0-dt0.1` (10% in 1 s), "
+            "`level0-dt0.05` (5% in 2 s), `level1-dt0.05` (1% in 4 s)") in report
+    assert ("Pareto front, time.tolerance (no other such run is both faster and more accurate): "
+            "`level0-tolerance0.01` (2% in 1.5 s), `level0-tolerance0.001` (0.4% in 2.5 s)") in report
+    assert "| level0-tolerance0.01 | 81 | 1,000 | completed | 4 (1 rejected) |" in report
+    assert "| level1-tolerance0.001 | | | not run |" in report
+    assert (tmp_path / "out" / "figures" / "study_tg_pareto.png").stat().st_size > 1000
+    points = [(1.0, 0.1), (2.0, 0.05), (1.5, 0.02)]
+    groups = ["fixed δt", "fixed δt", "time.tolerance"]
+    front = fronts(points, groups)
+    assert front == {"fixed δt": [0, 1], "time.tolerance": [2]}
+    fig = pareto_figure(study, points, ["a", "b", "c"], groups, front)
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert labels == ["fixed δt runs", "fixed δt: Pareto front", "time.tolerance runs", "time.tolerance: Pareto front"]
+    plt.close(fig)
+
+
+@pytest.mark.slow
+def test_tiny_study_with_tolerances(run_cli, tmp_path, repo_root):
+    """Taylor–Green to t = 0.2: two δt and two tolerances, run for real; both groups in the report."""
+    path = tmp_path / "s.yaml"
+    path.write_text(f"name: tg\nconfig: {repo_root / TG}\nobservables: [velocity, micro_rotation]\n"
+                    "base: {geometry.level: 0, time.t_end: 0.2}\nladder: {time.dt: [0.1, 0.05]}\n"
+                    "tolerances: [0.01, 0.001]\n")
+    out = tmp_path / "out"
+    proc = run_cli("study", path, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    runs = out / "runs" / "study-tg"
+    summaries = {p.parent.name: json.loads(p.read_text()) for p in runs.glob("*/summary.json")}
+    assert sorted(summaries) == ["dt0.05", "dt0.1", "tolerance0.001", "tolerance0.01"]
+    assert all(s["status"] == "completed" and s["time"]["t_final"] == 0.2 for s in summaries.values())
+    assert [s["time"].get("tolerance") for _, s in sorted(summaries.items())] == [None, None, 0.001, 0.01]
+    report = (out / "study_tg.md").read_text()
+    assert "Pareto front, fixed δt" in report and "Pareto front, time.tolerance" in report
+    assert (out / "figures" / "study_tg_pareto.png").stat().st_size > 1000

@@ -37,8 +37,9 @@ from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
 from ..signals import signal_handlers
+from .progress import advance as _advance, progress_bar as _progress_bar
 from .stop_signals import StopSignals
-from .verdict import check_reference, classify_signals, compare_with_scene_reference
+from .verdict import check_reference, classify_signals, compare_with_scene_reference, time_summary
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -274,29 +275,6 @@ def _write_summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, me
         return None
 
 
-def _progress_bar(total: int, enabled: bool, t_end: float | None = None):
-    """A bar counting steps to ``total``, or with ``t_end`` (time.tolerance: the number of steps is not
-    known) counting simulated time to ``t_end``."""
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    if t_end is not None:
-        return tqdm(total=float(t_end), unit="s simulated", dynamic_ncols=True, mininterval=0.5,
-                    bar_format="{l_bar}{bar}| t = {n:.4g}/{total:.4g} [{elapsed}<{remaining}{postfix}]")
-    return tqdm(total=total, unit="step", dynamic_ncols=True, mininterval=0.5)
-
-
-def _advance(bar, sim) -> None:
-    """Move the bar to the run's step (or, counting simulated time, to its t)."""
-    if isinstance(bar.total, float):
-        bar.update(min(sim.t, bar.total) - bar.n)
-        bar.set_postfix_str(f"step {sim.step_count}, dt={sim.state.steps.last:.3g}", refresh=False)
-    else:
-        bar.update(sim.step_count - bar.n)
-        bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
-
-
 def _write_fields(fields, sim):
     point = {"velocity": sim.velocity, "pressure": sim.pressure}
     if sim.model.micro_rotation:
@@ -335,7 +313,7 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             "mesh": {"geometry": scene.geometry.name, "level": scene.geometry.level, "vertices": n_vertices},
             "model": sim.model.describe(),
             "dofs": sim.num_dofs(),
-            "time": _time_block(scene, sim),
+            "time": time_summary(scene, sim),
             "memory": memory,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(sim.timers.totals)},
@@ -363,17 +341,6 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
         return summary
 
     return on_root(comm, build_and_write, step="summary")
-
-
-def _time_block(scene, sim) -> dict:
-    """summary.json's ``time``: the scheme, the first step ``dt``, the steps taken and the final t; with
-    ``time.tolerance`` also the rejected steps and the range of the accepted steps."""
-    out = {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": sim.step_count, "t_final": sim.t}
-    if sim.time_control is not None:
-        steps = sim.state.steps
-        out.update(tolerance=scene.time.tolerance, rejected_steps=int(steps.rejected),
-                   dt_smallest=steps.smallest or None, dt_largest=steps.largest or None)
-    return out
 
 
 def compare_with_reference(scene, summary: dict) -> dict:

@@ -66,6 +66,17 @@ def classify_signals(series: dict) -> tuple[dict, dict]:
     return signals, periodic
 
 
+def time_summary(scene, sim) -> dict:
+    """summary.json's ``time``: the scheme, the first step ``dt``, the steps taken and the final t; with
+    ``time.tolerance`` also the rejected steps and the range of the accepted steps."""
+    out = {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": sim.step_count, "t_final": sim.t}
+    if sim.time_control is not None:
+        steps = sim.state.steps
+        out.update(tolerance=scene.time.tolerance, rejected_steps=int(steps.rejected),
+                   dt_smallest=steps.smallest or None, dt_largest=steps.largest or None)
+    return out
+
+
 def _num(value) -> str:
     return "–" if value is None else f"{value:.6g}"
 
