@@ -5,6 +5,10 @@ A periodic result is "mean +- amplitude [frequency]" with mean = (max + min)/2 a
 maxima of the dominant oscillation: a maximum is the largest sample of a complete excursion above
 ``mid + h`` entered from and left to below ``mid - h`` (hysteresis ``h`` = half the amplitude), so
 small harmonics do not create extra periods. Each maximum is refined by parabolic interpolation.
+
+The samples need not be equally spaced (``time.tolerance`` chooses each step): the maxima are found in the
+samples, the parabola goes through three samples at their times, the "last half" of the record is the last
+half in time and the FFT cross-check interpolates to an equal spacing first.
 """
 
 from __future__ import annotations
@@ -12,6 +16,16 @@ from __future__ import annotations
 import numpy as np
 
 _CONSTANT_RTOL = 1e-10
+
+
+def second_half(t) -> int:
+    """Index of the first sample of the last half of the record in time (``len(t) // 2`` for a uniform
+    step; with steps chosen by time.tolerance the halves differ in their number of samples)."""
+    t = np.asarray(t, dtype=float)
+    if len(t) < 2:
+        return 0
+    middle = 0.5 * (t[0] + t[-1]) - 1e-9 * (t[-1] - t[0])
+    return min(int(np.searchsorted(t, middle, side="left")), len(t) - 1)
 
 
 def _vertex(t: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
@@ -76,7 +90,7 @@ def periodic_analysis(t, y, n_periods: int = 2) -> dict:
         raise ValueError("periodic_analysis: t and y must be 1-D of equal length >= 3, t increasing")
     if n_periods < 1:
         raise ValueError("periodic_analysis: n_periods must be >= 1")
-    half = len(t) // 2
+    half = second_half(t)
     tail = y[half:]
     result = dict(mean=None, amplitude=None, frequency=None, periods_used=0, frequency_fft=None,
                   method=None)

@@ -1,7 +1,8 @@
 """`cosserat-fsi plot RUN_DIR`: PNGs of a finished (or stopped) run.
 
 Time series from timeseries.csv (tip displacement, forces, energies, other observables; a file scene's
-named probes and solid points: :func:`own_groups`), with the
+named probes and solid points: :func:`own_groups`; the step size δt(t) of a run with ``time.tolerance``,
+steps.png), with the
 reference band of the scene's benchmark when there is one, and pyvista off-screen snapshots of |u|, p
 and ω on the deformed mesh (the solid outlined) at chosen times, from fields.h5. Works on any rank
 count's output (the files are global) and needs no display.
@@ -120,7 +121,7 @@ def _reference(run_dir: Path) -> dict:
 
 
 def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
-    """One PNG per group of observables present in timeseries.csv."""
+    """One PNG per group of observables present in timeseries.csv (and steps.png with a ``dt`` column)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -131,8 +132,21 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
     series = read_timeseries(run_dir / "timeseries.csv")
     if "t" not in series or len(series["t"]) == 0:
         raise InputError(f"{run_dir / 'timeseries.csv'}: no time steps to plot")
-    ref = _reference(run_dir)
     made = []
+    for stem, fig in timeseries_figures(series, _reference(run_dir), run_dir.name).items():
+        path = out / f"{stem}.png"
+        _save(lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"), path)
+        plt.close(fig)
+        made.append(path)
+    return made
+
+
+def timeseries_figures(series: dict, ref: dict, title: str) -> dict:
+    """{file stem: matplotlib figure} of the time series: the groups present, and ``steps`` (δt(t) on a log
+    scale) when the run chose its steps (time.tolerance: a ``dt`` column)."""
+    import matplotlib.pyplot as plt
+
+    figures = {}
     for stem, (columns, ylabel) in {**GROUPS, **own_groups(series)}.items():
         present = [c for c in columns if c in series]
         if not present:
@@ -146,16 +160,22 @@ def plot_timeseries(run_dir: Path, out: Path) -> list[Path]:
                            label="reference range")
             elif isinstance(r, (int, float)):
                 ax.axhline(r, color="k", ls="--", lw=0.8, label="reference")
-            ax.set_ylabel(column if stem in ("flow", "energies") else f"{column}")
+            ax.set_ylabel(column)
             ax.legend(fontsize=7, loc="upper left")
         axes[-1, 0].set_xlabel("t (s)")
-        fig.suptitle(f"{run_dir.name}: {ylabel}")
+        fig.suptitle(f"{title}: {ylabel}")
         fig.tight_layout()
-        path = out / f"{stem}.png"
-        _save(lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"), path)
-        plt.close(fig)
-        made.append(path)
-    return made
+        figures[stem] = fig
+    if "dt" in series and len(series["dt"]):
+        fig, ax = plt.subplots(figsize=(9, 2.6))
+        ax.semilogy(series["t"], series["dt"], ".-", lw=0.8, ms=3, label="δt (the step ending at t)")
+        ax.set_ylabel("δt (s)")
+        ax.set_xlabel("t (s)")
+        ax.legend(fontsize=7, loc="upper left")
+        fig.suptitle(f"{title}: step size (time.tolerance)")
+        fig.tight_layout()
+        figures["steps"] = fig
+    return figures
 
 
 def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = None) -> list[Path]:

@@ -37,8 +37,9 @@ from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
 from ..signals import signal_handlers
+from .progress import advance as _advance, progress_bar as _progress_bar
 from .stop_signals import StopSignals
-from .verdict import check_reference, classify_signals, compare_with_scene_reference
+from .verdict import check_reference, classify_signals, compare_with_scene_reference, time_summary
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -122,6 +123,8 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,
              mesh.topology.index_map(mesh.topology.dim).size_global)
     log.info("model: %s", sim.model.describe())
+    if sim.time_control is not None:  # the controller's bounds, defaults included
+        log.info("%s", sim.time_control.describe())
     log.info("dofs: %s", sim.num_dofs())
     log.info("boundaries:%s", "".join(f"\n  {c}" for c in conditions) or " the exact solution's (but the outlet)")
     for line in observables.locations():  # where the probes landed; the solid's cells across
@@ -182,8 +185,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
             log.info("t = %.6g: minimum cell quality %.4g (lowest so far %.4g)", sim.t, sim.motion.min_quality,
                      sim.motion.lowest_quality)
         if bar is not None:
-            bar.update(1)
-            bar.set_postfix_str(f"t={sim.t:.4g}", refresh=False)
+            _advance(bar, sim)
         signum = _step_end(comm, stop, [series, *profiles.values()])
         if signum:
             checkpoint()
@@ -201,9 +203,10 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         if scene.output.fields:
             fields = MovingMeshXDMF(out_dir / "fields.xdmf", mesh, comm,
                                     keep_steps=earlier_field_steps if restart and earlier_field_steps else None)
-        bar = _progress_bar(n_steps, progress and comm.rank == 0)
+        bar = _progress_bar(n_steps, progress and comm.rank == 0,
+                            scene.time.t_end if sim.time_control is not None else None)
         if bar is not None:
-            bar.update(sim.step_count)
+            _advance(bar, sim)
         with StopSignals() as stop:
             if fields is not None and fields.num_steps == 0 and not steady:
                 _write_fields(fields, sim)
@@ -272,14 +275,6 @@ def _write_summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, me
         return None
 
 
-def _progress_bar(total: int, enabled: bool):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, unit="step", dynamic_ncols=True, mininterval=0.5)
-
-
 def _write_fields(fields, sim):
     point = {"velocity": sim.velocity, "pressure": sim.pressure}
     if sim.model.micro_rotation:
@@ -318,13 +313,11 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
             "mesh": {"geometry": scene.geometry.name, "level": scene.geometry.level, "vertices": n_vertices},
             "model": sim.model.describe(),
             "dofs": sim.num_dofs(),
-            "time": {"dt": scene.time.dt, "scheme": scene.time.scheme,
-                     "steps": sim.step_count,
-                     "t_final": sim.t},
+            "time": time_summary(scene, sim),
             "memory": memory,
             "wall_time": {"total": wall, "setup": setup_time, "per_step": (wall - setup_time) / steps,
                           "phases": dict(sim.timers.totals)},
-            "final": {k: float(v[-1]) for k, v in series.items() if k != "t" and len(v)},
+            "final": {k: float(v[-1]) for k, v in series.items() if k not in ("t", "dt") and len(v)},
         }
         # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
         summary["signals"], summary["periodic"] = classify_signals(series)

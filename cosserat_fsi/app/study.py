@@ -16,7 +16,12 @@ levels × δt × scheme × solver options):
                       time.corrector_passes: 1}                # only make sense together
     extra:                                                     # optional: single runs beside the ladder
       ale-dt0.002-level1: {geometry.level: 1, time.dt: 0.002, time.scheme: ale_bdf2}   # (id: overrides)
+    tolerances: [1.0e-3, 1.0e-4]                               # optional: adaptive runs beside the ladder
     ranks: 1                                                   # optional: runs under mpirun -n ranks
+
+``tolerances``: a ladder of ``time.tolerance`` beside the ``time.dt`` one: every point of the ladder without
+its ``time.dt`` key (× each variant) is run again at each tolerance (ids end in ``tolerance<value>``), the
+steps chosen by the controller from a first step of the scene's ``time.dt`` (after ``base``).
 
 An override ``null`` removes the key (e.g. a ``time.corrector_passes`` the scheme of the run does not take).
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
@@ -24,7 +29,9 @@ An override ``null`` removes the key (e.g. a ``time.corrector_passes`` the schem
 campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume.
 The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the benchmark's
 reference, wall time, time per step, the per-phase times and the peak memory, and
-``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto front.
+``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto fronts of
+the fixed-step runs and of the runs with a ``time.tolerance`` (two labelled series; a run belongs to the
+second when its summary.json has a ``time.tolerance``).
 """
 
 from __future__ import annotations
@@ -33,7 +40,7 @@ import itertools
 import math
 import json
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -56,6 +63,7 @@ class Study(BaseModel):
     ladder: dict[str, list[Any]] = Field(min_length=1)
     variants: dict[str, dict[str, Any]] = {}
     extra: dict[str, dict[str, Any]] = {}
+    tolerances: list[Annotated[float, Field(gt=0, lt=1)]] = []
     ranks: int = Field(default=1, ge=1, le=1024)
 
 
@@ -83,12 +91,15 @@ def load_study(path: str | Path) -> Study:
                          *((f"extra.{n}.{k}", v) for n, o in study.extra.items() for k, v in o.items())]:
         if isinstance(value, float) and not math.isfinite(value):
             raise InputError(f"{path}: {where}: must be a finite number (got {value!r})")
+    if study.tolerances and "time.tolerance" in study.ladder:
+        raise InputError(f"{path}: tolerances: not with a ladder of time.tolerance (give the values once)")
     runs = 1
     for key, values in study.ladder.items():
         if not values:
             raise InputError(f"{path}: ladder.{key}: needs at least one value")
         runs *= len(values)
-    runs = runs * max(len(study.variants), 1) + len(study.extra)
+    adaptive = math.prod(len(v) for k, v in study.ladder.items() if k != "time.dt") * len(study.tolerances)
+    runs = (runs + adaptive) * max(len(study.variants), 1) + len(study.extra)
     if runs > MAX_RUNS:
         raise InputError(f"{path}: ladder: {runs:,} runs, more than {MAX_RUNS:,}")
     # every run's scene must validate before anything runs (a bad value costs a second, not an hour)
@@ -112,8 +123,8 @@ def _yaml(value) -> str:
 
 
 def _combinations(study: Study) -> list[tuple[dict, str]]:
-    """(overrides, run id) of every run: the ladder's product, each point once per variant (innermost), then
-    the ``extra`` runs (an id the ladder already has is the ladder's)."""
+    """(overrides, run id) of every run: the ladder's product, each point once per variant (innermost), the
+    ``tolerances`` runs, then the ``extra`` runs (an id the ladder already has is the ladder's)."""
     keys = list(study.ladder)
     variants = study.variants or {"": {}}
     runs = []
@@ -122,6 +133,13 @@ def _combinations(study: Study) -> list[tuple[dict, str]]:
         for name, extra in variants.items():
             run_id = "-".join(parts + ([name] if name else [])).replace("/", "_").replace(" ", "")
             runs.append(({**study.base, **dict(zip(keys, values)), **extra}, run_id))
+    fixed = {k: v for k, v in study.ladder.items() if k != "time.dt"}  # the tolerances replace time.dt
+    for values in itertools.product(*fixed.values(), study.tolerances):
+        parts = [f"{key.rsplit('.', 1)[-1]}{_yaml(value)}" for key, value in zip([*fixed, "time.tolerance"], values)]
+        for name, extra in variants.items():
+            run_id = "-".join(parts + ([name] if name else [])).replace("/", "_").replace(" ", "")
+            runs.append(({**study.base, **dict(zip(fixed, values[:-1])), "time.tolerance": values[-1], **extra},
+                         run_id))
     taken = {run_id for _, run_id in runs}
     for run_id, extra in study.extra.items():  # single runs beside the ladder, after it
         if run_id not in taken:
@@ -158,8 +176,11 @@ def _measured(study: Study, folder: Path, s: dict) -> dict:
         error = entry.get("error") if isinstance(entry, dict) else None
         errors[key] = None if error is None else float(error)
     phases = s.get("wall_time", {}).get("phases", {})
-    steps = max(s.get("time", {}).get("steps", 1), 1)
-    return {"status": s.get("status"), "errors": errors, "wall": float(s["wall_time"]["total"]),
+    time = s.get("time", {})
+    steps = max(time.get("steps", 1), 1)
+    return {"status": s.get("status"), "errors": errors, "steps": int(time.get("steps", 0)),
+            "tolerance": time.get("tolerance"), "rejected": int(time.get("rejected_steps", 0)),
+            "wall": float(s["wall_time"]["total"]),
             "per_step": float(s["wall_time"]["per_step"]),
             "phases": {p: float(phases.get(p, 0.0)) / steps for p in PHASES},
             "memory": (s.get("memory") or {}).get("peak_rss_mib_sum"), "vertices": int(s["mesh"]["vertices"]),
@@ -189,20 +210,35 @@ def pareto(points: list[tuple[float, float]]) -> list[int]:
     return front
 
 
+GROUPS = ("fixed δt", "time.tolerance")  # the two series of the Pareto plot
+
+
+def fronts(points: list[tuple[float, float]], groups: list[str]) -> dict[str, list[int]]:
+    """{group: indices of its Pareto front}: the fixed-step runs and the runs with a time.tolerance each
+    have their own front (a group without runs is left out)."""
+    out = {}
+    for group in GROUPS:
+        members = [i for i, g in enumerate(groups) if g == group]
+        if members:
+            out[group] = [members[j] for j in pareto([points[i] for i in members])]
+    return out
+
+
 def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path:
     """Write ``<out>/study_<name>.md`` (and the Pareto plot) from the runs' summaries; returns its path."""
-    rows, points, labels = [], [], []
-    head = ("| run | vertices | dofs | status | " + " | ".join(f"error {k}" for k in study.observables)
+    rows, points, labels, groups = [], [], [], []
+    head = ("| run | vertices | dofs | status | steps | " + " | ".join(f"error {k}" for k in study.observables)
             + " | wall (s) | s/step | " + " | ".join(PHASES) + " | peak memory (MiB) |")
     rows += [head, "|" + "---|" * (head.count("|") - 1)]
     for _, folder in todo:
         m = _measure(study, folder)
         run = folder.name
         if m is None:
-            rows.append(f"| {run} | | | not run |" + " |" * (len(study.observables) + 3 + len(PHASES)))
+            rows.append(f"| {run} | | | not run | |" + " |" * (len(study.observables) + 3 + len(PHASES)))
             continue
         errs = [m["errors"][k] for k in study.observables]
-        rows.append(f"| {run} | {m['vertices']:,} | {m['dofs']:,} | {m['status']} | "
+        steps = f"{m['steps']}" + (f" ({m['rejected']} rejected)" if m["tolerance"] is not None else "")
+        rows.append(f"| {run} | {m['vertices']:,} | {m['dofs']:,} | {m['status']} | {steps} | "
                     + " | ".join("–" if e is None else f"{100 * e:+.3g}%" for e in errs)
                     + f" | {m['wall']:.3g} | {m['per_step']:.4f} | "
                     + " | ".join(f"{m['phases'][p]:.4f}" for p in PHASES)
@@ -210,18 +246,20 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path
         if m["status"] == "completed" and all(e is not None for e in errs):
             points.append((m["wall"], max(abs(e) for e in errs)))
             labels.append(run)
-    front = pareto(points)
-    figure = _plot(study, points, labels, front, out) if points else None
+            groups.append(GROUPS[m["tolerance"] is not None])
+    front = fronts(points, groups)
+    figure = _plot(study, points, labels, groups, front, out) if points else None
     lines = [f"# Study `{study.name}`", "",
              f"Written by `cosserat-fsi study` from `{study.config}` with base overrides "
              f"`{json.dumps(study.base)}` over the ladder `{json.dumps(study.ladder)}` "
-             + (f"× the variants `{json.dumps(study.variants)}` " if study.variants else "") +
+             + (f"× the variants `{json.dumps(study.variants)}` " if study.variants else "")
+             + (f"and the time.tolerance ladder `{json.dumps(study.tolerances)}` " if study.tolerances else "") +
              f"({study.ranks} rank{'s' if study.ranks > 1 else ''}). Errors are relative to the benchmark's "
              "reference; phases are seconds per step; peak memory is the sum over ranks.", "", *rows, ""]
-    if front:
-        lines += ["Pareto front (no other run is both faster and more accurate): "
+    for group, members in front.items():
+        lines += [f"Pareto front, {group} (no other such run is both faster and more accurate): "
                   + ", ".join(f"`{labels[i]}` ({100 * points[i][1]:.3g}% in {points[i][0]:.3g} s)"
-                              for i in sorted(front, key=lambda i: points[i][0])), ""]
+                              for i in sorted(members, key=lambda i: points[i][0])), ""]
     if figure:
         lines += [f"![pareto]({figure})", ""]
     path = out / f"study_{study.name}.md"
@@ -229,7 +267,8 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path
     return path
 
 
-def _plot(study, points, labels, front, out: Path) -> str:
+def pareto_figure(study, points, labels, groups, front):
+    """The Pareto plot: worst error against wall time, one labelled series (runs and front) per group."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -237,16 +276,28 @@ def _plot(study, points, labels, front, out: Path) -> str:
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     xs, ys = [p[0] for p in points], [max(p[1], 1e-6) for p in points]
-    ax.loglog(xs, ys, "o", color="0.5")
+    for group, members in front.items():
+        mine = [i for i, g in enumerate(groups) if g == group]
+        colour, marker = ("C0", "o") if group == GROUPS[0] else ("C3", "s")
+        ax.loglog([xs[i] for i in mine], [ys[i] for i in mine], marker, color=colour, alpha=0.5, ls="none",
+                  label=f"{group} runs")
+        f = sorted(members, key=lambda i: xs[i])
+        ax.loglog([xs[i] for i in f], [ys[i] for i in f], "-" + marker, color=colour,
+                  label=f"{group}: Pareto front")
     for x, y, label in zip(xs, ys, labels):
         ax.annotate(label, (x, y), fontsize=6, xytext=(3, 3), textcoords="offset points")
-    f = sorted(front, key=lambda i: xs[i])
-    ax.loglog([xs[i] for i in f], [ys[i] for i in f], "-o", color="C3", label="Pareto front")
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("worst relative error of " + ", ".join(study.observables))
     ax.set_title(f"study {study.name}: accuracy against cost")
     ax.legend(fontsize=7)
     fig.tight_layout()
+    return fig
+
+
+def _plot(study, points, labels, groups, front, out: Path) -> str:
+    import matplotlib.pyplot as plt
+
+    fig = pareto_figure(study, points, labels, groups, front)
     path = out / "figures" / f"study_{study.name}_pareto.png"
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)

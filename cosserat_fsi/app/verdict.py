@@ -1,6 +1,7 @@
 """How a run did, in words and numbers: the last lines a run prints, and the signal classification of summary.json.
 
-:func:`classify_signals` tells for each observable whether it is ``"steady"``, ``"periodic"`` (then with the
+:func:`classify_signals` tells for each observable (not ``t``, nor the step size ``dt`` of a run with
+``time.tolerance``) whether it is ``"steady"``, ``"periodic"`` (then with the
 periodic analysis: mean ± amplitude [frequency]) or ``"not periodic yet"``; only periodic signals get an
 analysis, so noise on a steady signal is not reported as an oscillation.
 
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analysis import periodic_analysis
+from ..analysis import periodic_analysis, second_half
 
 TOLERANCES = {
     "schaefer_turek_2d1": {"c_D": 0.005, "c_L": 0.05, "dp": 0.01},
@@ -36,6 +37,7 @@ TOLERANCES = {
     "micropolar_taylor_green": {"velocity": 1e-2, "micro_rotation": 1e-2},
 }
 
+NOT_SIGNALS = ("t", "dt")  # the time and, with time.tolerance, the step size: not observables
 STEADY_RTOL = 1e-4  # a signal whose last half varies by less than this fraction of its size is steady
 HEADLINE = ("drag", "lift", "dp", "ux_A", "uy_A", "flow_rate", "omega_max", "energy_total",
             "velocity_error", "micro_rotation_error")
@@ -45,11 +47,12 @@ def classify_signals(series: dict) -> tuple[dict, dict]:
     """({observable: "steady" | "periodic" | "not periodic yet"}, {observable: periodic analysis})."""
     signals, periodic = {}, {}
     t = series.get("t")
+    half = second_half(t) if t is not None and len(t) else None  # the last half in time
     for key, values in series.items():
-        if key == "t" or not len(values):
+        if key in NOT_SIGNALS or not len(values):
             continue
         y = np.asarray(values, dtype=float)
-        tail = y[len(y) // 2:]
+        tail = y[half:] if half is not None and len(y) == len(t) else y[len(y) // 2:]
         scale = max(float(np.abs(y).max()), np.finfo(float).tiny)
         if len(y) == 1 or (len(y) >= 3 and np.ptp(tail) <= STEADY_RTOL * scale):
             signals[key] = "steady"  # one row: a steady solve
@@ -61,6 +64,17 @@ def classify_signals(series: dict) -> tuple[dict, dict]:
         else:
             signals[key] = "not periodic yet"
     return signals, periodic
+
+
+def time_summary(scene, sim) -> dict:
+    """summary.json's ``time``: the scheme, the first step ``dt``, the steps taken and the final t; with
+    ``time.tolerance`` also the rejected steps and the range of the accepted steps."""
+    out = {"dt": scene.time.dt, "scheme": scene.time.scheme, "steps": sim.step_count, "t_final": sim.t}
+    if sim.time_control is not None:
+        steps = sim.state.steps
+        out.update(tolerance=scene.time.tolerance, rejected_steps=int(steps.rejected),
+                   dt_smallest=steps.smallest or None, dt_largest=steps.largest or None)
+    return out
 
 
 def _num(value) -> str:
@@ -107,6 +121,8 @@ def check_reference(scene, columns: list[str]) -> None:
     from ..errors import InputError
 
     for name in scene.reference or {}:
+        if name in NOT_SIGNALS:
+            raise InputError(f"reference.{name}: the time and the step size are not observables")
         if name not in columns:
             raise InputError(f"reference.{name}: not a column of this scene's timeseries.csv (it has: "
                              f"{', '.join(columns)[:200]})")
@@ -188,7 +204,22 @@ def verdict_lines(summary: dict) -> list[str]:
     wall = summary.get("wall_time", {})
     time = summary.get("time", {})
     how = (f"steady (Newton, {summary['newton']['iterations']} iterations)" if "newton" in summary
-           else f"{time.get('steps')} steps of {time.get('dt')} to t = {time.get('t_final', 0):.6g}")
+           else _steps_text(time))
     lines.append(f"status: {summary.get('status')}; {how}; wall time {wall.get('total', 0):.2f} s "
                  f"(setup {wall.get('setup', 0):.2f} s); {summary.get('ranks', 1)} rank(s)")
     return lines
+
+
+def _steps_text(time: dict) -> str:
+    """How the run stepped: "N steps of DT to t = T", or with time.tolerance "N steps, δt A–B (time.tolerance
+    TOL), R rejected, to t = T"."""
+    end = f"to t = {time.get('t_final', 0):.6g}"
+    if time.get("tolerance") is None:
+        return f"{time.get('steps')} steps of {time.get('dt')} {end}"
+    low, high = time.get("dt_smallest"), time.get("dt_largest")
+    if low is None or high is None:
+        sizes = "no step accepted"
+    else:
+        sizes = f"δt {low:.2g}" if f"{low:.2g}" == f"{high:.2g}" else f"δt {low:.2g}–{high:.2g}"
+    return (f"{time.get('steps')} steps, {sizes} (time.tolerance {time['tolerance']:g}), "
+            f"{time.get('rejected_steps', 0)} rejected, {end}")
