@@ -15,7 +15,9 @@ factor is between 1 and 1.2 (a fixed mesh's matrix is then refactorised only for
 [``dt_min``, ``dt_max``]. E > 1 (or a non-finite solution) rejects it: it is tried again from the same state
 with δt·max(0.2, 0.9 E^{−1/k}) (0.25 after a non-finite solution), not below ``dt_min``; a step rejected at
 ``dt_min`` stops the run (DivergenceError: exit 3). The first p steps take ``time.dt``: the predictor needs
-p + 1 earlier levels. The last step ends at ``t_end``.
+p + 1 earlier levels, and so do the p + 1 steps after a remesh (State.transfer_to: the carried levels are
+interpolations, and the solution's jump onto the new mesh is not an error a smaller step reduces). The last
+step ends at ``t_end``.
 """
 
 from __future__ import annotations
@@ -75,7 +77,8 @@ class TimeControl:
     def error(self, stepper) -> float | None:
         """E of the attempted step (module docstring), or None while there are too few levels."""
         state, order = stepper.state, self.order
-        if state.step_count < order:
+        transferred = state.steps.transferred  # the levels up to a remesh's are interpolated: wait for p + 1 new
+        if state.step_count < order or (transferred > 0 and state.step_count - transferred <= order):
             return None
         steps, dt = state.steps, stepper.dt
         factor = estimate_factor(order, dt, steps.last, steps.before)
