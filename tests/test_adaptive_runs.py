@@ -98,7 +98,6 @@ def test_adaptive_restart_reproduces_the_uninterrupted_run(shared_tmp, scheme):
     """Killed after the checkpoint of step 10 (after the rejections of the first steps), restarted: the time
     series, dt column included, and the fields to 1e-10 of the uninterrupted run (the controller's memory
     and u^{n−2}, d^{n−2} are in the checkpoint)."""
-    from test_restart import _fields as h5_fields
     from test_restart import run_keeping_checkpoint
 
     comm = MPI.COMM_WORLD
@@ -108,32 +107,51 @@ def test_adaptive_restart_reproduces_the_uninterrupted_run(shared_tmp, scheme):
         full.mkdir()
     comm.barrier()
     kept = run_keeping_checkpoint(scene, full, comm, 10)
-    problem = None
-    if comm.rank == 0:
-        shutil.copytree(full, cut)
-        shutil.rmtree(cut / "checkpoint")
-        shutil.copytree(kept, cut / "checkpoint")
-        meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
-        lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
-        (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
-        with np.load(cut / "checkpoint" / "rank0000.npz") as saved:
-            steps = saved["steps"]
-        if not (meta["step"] == 10 < len(lines) - 2 and steps[4] >= 2):  # rejected: 2 or more by then
-            problem = f"checkpoint of step {meta['step']} of {len(lines) - 1}, steps {steps}"
-    problem = comm.bcast(problem, root=0)
+    problem = comm.bcast(_on_root(comm, _cut_after_checkpoint, full, cut, kept), root=0)
     assert problem is None, problem
     run_scene(scene, cut, comm, progress=False, restart=True)
-    if comm.rank == 0:
-        a, b = read_timeseries(full / "timeseries.csv"), read_timeseries(cut / "timeseries.csv")
-        problem = _compare(a, b, 1e-10)
-        if problem is None and not (abs(a["t"][-1] - 0.1) < 1e-15 and np.ptp(a["dt"][:-1]) > 1e-3):
-            problem = f"t {a['t'][-1]}, dt {a['dt']}"
-        fa, fb = h5_fields(full), h5_fields(cut)
-        for key in fa if problem is None else ():
-            if not np.allclose(fa[key], fb[key], rtol=1e-10, atol=1e-12 * max(np.abs(fa[key]).max(), 1)):
-                problem = f"fields.h5 {key}"
-    problem = comm.bcast(problem, root=0)
+    problem = comm.bcast(_on_root(comm, _same_runs, full, cut), root=0)
     assert problem is None, problem
+
+
+def _on_root(comm, check, *args) -> str | None:
+    """``check(*args)`` on rank 0 (None or what is wrong; an exception is what is wrong): the other ranks
+    must not be left waiting in a collective when rank 0 fails."""
+    if comm.rank != 0:
+        return None
+    try:
+        return check(*args)
+    except Exception as exc:  # noqa: BLE001 - reported to every rank by the caller
+        return f"{type(exc).__name__}: {exc}"
+
+
+def _cut_after_checkpoint(full, cut, kept) -> str | None:
+    """A copy of ``full`` "killed" after its checkpoint ``kept`` (of step 10): later rows half-written."""
+    shutil.copytree(full, cut)
+    shutil.rmtree(cut / "checkpoint")
+    shutil.copytree(kept, cut / "checkpoint")
+    meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
+    lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
+    (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
+    with np.load(cut / "checkpoint" / "rank0000.npz") as saved:
+        steps = saved["steps"]
+    if not (meta["step"] == 10 < len(lines) - 2 and steps[4] >= 2):  # rejected: 2 or more by then
+        return f"checkpoint of step {meta['step']} of {len(lines) - 1}, steps {steps}"
+    return None
+
+
+def _same_runs(full, cut) -> str | None:
+    from test_restart import _fields as h5_fields
+
+    a, b = read_timeseries(full / "timeseries.csv"), read_timeseries(cut / "timeseries.csv")
+    problem = _compare(a, b, 1e-10)
+    if problem is None and not (abs(a["t"][-1] - 0.1) < 1e-15 and np.ptp(a["dt"][:-1]) > 1e-3):
+        problem = f"t {a['t'][-1]}, dt {a['dt']}"
+    fa, fb = h5_fields(full), h5_fields(cut)
+    for key in fa if problem is None else ():
+        if not np.allclose(fa[key], fb[key], rtol=1e-10, atol=1e-12 * max(np.abs(fa[key]).max(), 1)):
+            problem = f"fields.h5 {key}"
+    return problem
 
 
 def test_a_finished_adaptive_run_extended_by_the_cli_continues_its_controller(run_cli, tmp_path):
@@ -170,15 +188,16 @@ def test_adaptive_run_serial_equals_parallel(shared_tmp, scheme):
         run_scene(scene, shared_tmp / "self", MPI.COMM_SELF, progress=False)
     comm.barrier()
     run_scene(scene, shared_tmp / "world", comm, progress=False)
-    problem = None
-    if comm.rank == 0:
-        a = read_timeseries(shared_tmp / "self" / "timeseries.csv")
-        b = read_timeseries(shared_tmp / "world" / "timeseries.csv")
-        problem = _compare(a, b, 1e-8)
-        if problem is None and np.ptp(a["dt"]) < 1e-3:
-            problem = f"the steps did not change: {a['dt']}"
-    problem = comm.bcast(problem, root=0)
+    problem = comm.bcast(_on_root(comm, _same_series, shared_tmp / "self", shared_tmp / "world"), root=0)
     assert problem is None, problem
+
+
+def _same_series(one, two) -> str | None:
+    a, b = read_timeseries(one / "timeseries.csv"), read_timeseries(two / "timeseries.csv")
+    problem = _compare(a, b, 1e-8)
+    if problem is None and np.ptp(a["dt"]) < 1e-3:
+        problem = f"the steps did not change: {a['dt']}"
+    return problem
 
 
 def test_an_adaptive_run_through_a_remesh(monkeypatch):

@@ -99,7 +99,8 @@ class TimeControl:
             parts.append((d_new[mine].ravel(), predicted(order, dt, steps.last, steps.before, *map(
                 at_nodes, (state.displacement, state.displacement_prev, state.displacement_prev2)))))
         sums = np.zeros(2 * len(parts))
-        scales = self.comm.allreduce(np.array([np.abs(new).max(initial=0.0) for new, _ in parts]), op=MPI.MAX)
+        scales = np.array([np.abs(new).max(initial=0.0) for new, _ in parts])
+        self.comm.Allreduce(MPI.IN_PLACE, scales, op=MPI.MAX)  # elementwise (the pickled MAX compares arrays)
         for i, ((new, guess), scale) in enumerate(zip(parts, scales)):
             weight = np.abs(new) + self.floor * scale
             ratio = np.divide(factor * (new - guess), weight, out=np.zeros_like(new), where=weight > 0.0)
