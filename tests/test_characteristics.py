@@ -128,12 +128,15 @@ def _wobble(X, t):
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("ratio", [1.0, 0.6, 1.7])
 @pytest.mark.parametrize("moving", [False, True], ids=["fixed", "moving"])
-def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
+def test_fused_bdf2_history_equals_numpy(monkeypatch, moving, ratio):
     """The fused BDF2 kernel (histories.py → _kernels.bdf2_quadrature: u*, feet, both evaluations and
-    2v₁ − ½v₂ written into the quadrature functions) gives the numpy path's α h of u and ω to round-off
-    (in practice bit for bit), on a fixed and on a moving mesh, with feet beyond the inflow (pulled back),
-    and under 2 ranks on other ranks: the points the kernel's walks cannot finish take the general path."""
+    a₁v₁ − a₂v₂ written into the quadrature functions) gives the numpy path's α h of u and ω to round-off
+    (in practice bit for bit), on a fixed and on a moving mesh, at constant steps and at a step ratio
+    ω = δt_n/δt_{n−1} ≠ 1 (u* = (1 + ω)u^n − ωu^{n−1}, the second foot δt_n + δt_{n−1}), with feet beyond the
+    inflow (pulled back), and under 2 ranks on other ranks: the points the kernel's walks cannot finish take
+    the general path."""
     if not _kernels.ENABLED:
         pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1): no compiled path to compare")
     from cosserat_fsi.app.runner import load_mesh
@@ -155,7 +158,7 @@ def test_fused_bdf2_history_equals_numpy(monkeypatch, moving):
         monkeypatch.setattr(point_location, "COMPILED", compiled)
         for f in (h.velocity, h.micro_rotation):
             f.x.array[:] = np.nan
-        h.update(BdfWeights(2, stepper.dt), stepper.state, stepper.solve_displacement)
+        h.update(BdfWeights(2, ratio * stepper.dt, ratio), stepper.state, stepper.solve_displacement)
         return [f.x.array.copy() for f in (h.velocity, h.micro_rotation)]
 
     ref, ours = history(False), history(True)
@@ -198,14 +201,14 @@ def test_feet_on_a_rotation(monkeypatch, compiled):
     qdofs = h._quadrature_dofs(h.micro_rotation)
 
     def foot_errors(dt):
-        h.dt = dt
+        bdf = BdfWeights(2, dt)
         feet = np.zeros((len(x), 2, 2))  # point, foot k = 1, 2, component
         for comp in (0, 1):
             for k, (now, before) in enumerate(((state.micro_rotation, state.micro_rotation_prev),
                                                (state.micro_rotation_prev, state.micro_rotation))):
                 now.interpolate(lambda X, comp=comp: X[comp])
                 before.x.array[:] = 0.0
-                h.update(BdfWeights(2, dt), state)
+                h.update(bdf, state)
                 feet[:, k, comp] = h.micro_rotation.x.array[qdofs] / (2.0 if k == 0 else -0.5)
         errors = []
         for k in (1, 2):

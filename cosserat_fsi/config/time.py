@@ -23,8 +23,9 @@ class _Stepping(_Section):
     in the solid, the displacement). ``dt`` is then the first steps' size; ``dt_min`` (default dt/1000: a
     step rejected there stops the run, exit 3), ``dt_max`` (default: none) bound the steps; ``error_floor``
     (default 0.01) is the absolute floor of the relative error's weights, as a fraction of the field's largest
-    value, so that a field's near-zero values do not decide the step. The δt of each step is the ``dt``
-    column of timeseries.csv."""
+    value, so that a field's near-zero values do not decide the step. After a remesh the next p + 1 steps (p the
+    scheme's order) keep the step proposed before it: the estimate does not reach back across the
+    interpolation. The δt of each step is the ``dt`` column of timeseries.csv."""
 
     dt: PositiveFloat
     t_end: PositiveFloat

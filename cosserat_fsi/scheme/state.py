@@ -206,6 +206,7 @@ class State:
         for name, f in mine.items():
             interpolate(theirs[name], f)
         other.t, other.step_count, other.steps = self.t, self.step_count, self.steps.copy()
+        other.steps.transferred = float(self.step_count)  # the error estimate starts again (time_control.py)
 
 
 class StepSizes:
@@ -214,9 +215,11 @@ class StepSizes:
     ``last`` = t^n − t^{n−1}, ``before`` = t^{n−1} − t^{n−2} (0 until there are such levels); ``next``: the
     size the controller proposes for the coming step (0: the scene's ``time.dt``); ``error``: the last
     accepted step's scaled error estimate (0: none yet); ``rejected``: the steps rejected so far;
-    ``smallest``/``largest``: the range of the accepted steps."""
+    ``smallest``/``largest``: the range of the accepted steps; ``transferred``: the step at which the fields
+    were carried to another mesh (a remesh; 0: never): the error estimate's predictor does not reach back
+    across that interpolation."""
 
-    FIELDS = ("last", "before", "next", "error", "rejected", "smallest", "largest")
+    FIELDS = ("last", "before", "next", "error", "rejected", "smallest", "largest", "transferred")
 
     def __init__(self, values=None):
         for name, value in zip(self.FIELDS, values if values is not None else [0.0] * len(self.FIELDS)):

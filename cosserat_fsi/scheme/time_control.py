@@ -15,9 +15,10 @@ factor is between 1 and 1.2 (a fixed mesh's matrix is then refactorised only for
 [``dt_min``, ``dt_max``]. E > 1 (or a non-finite solution) rejects it: it is tried again from the same state
 with δt·max(0.2, 0.9 E^{−1/k}) (0.25 after a non-finite solution), not below ``dt_min``; a step rejected at
 ``dt_min`` stops the run (DivergenceError: exit 3). The first p steps take ``time.dt``: the predictor needs
-p + 1 earlier levels. The last step ends at ``t_end``. Generalised-α is estimated as BDF2 (the same predictor
-and constant; its own local error constant depends on ρ∞), its rates moved to each new step's lag
-(generalized_alpha.py ``_shift_rates``).
+p + 1 earlier levels, and so do the p + 1 steps after a remesh (State.transfer_to: the carried levels are
+interpolations, and the solution's jump onto the new mesh is not an error a smaller step reduces). The last
+step ends at ``t_end``. Generalised-α is estimated as BDF2 (the same predictor and constant; its own local
+error constant depends on ρ∞), its rates moved to each new step's lag (generalized_alpha.py ``_shift_rates``).
 """
 
 from __future__ import annotations
@@ -77,7 +78,8 @@ class TimeControl:
     def error(self, stepper) -> float | None:
         """E of the attempted step (module docstring), or None while there are too few levels."""
         state, order = stepper.state, self.order
-        if state.step_count < order:
+        transferred = state.steps.transferred  # the levels up to a remesh's are interpolated: wait for p + 1 new
+        if state.step_count < order or (transferred > 0 and state.step_count - transferred <= order):
             return None
         steps, dt = state.steps, stepper.dt
         factor = estimate_factor(order, dt, steps.last, steps.before)
@@ -98,7 +100,8 @@ class TimeControl:
             parts.append((d_new[mine].ravel(), predicted(order, dt, steps.last, steps.before, *map(
                 at_nodes, (state.displacement, state.displacement_prev, state.displacement_prev2)))))
         sums = np.zeros(2 * len(parts))
-        scales = self.comm.allreduce(np.array([np.abs(new).max(initial=0.0) for new, _ in parts]), op=MPI.MAX)
+        scales = np.array([np.abs(new).max(initial=0.0) for new, _ in parts])
+        self.comm.Allreduce(MPI.IN_PLACE, scales, op=MPI.MAX)  # elementwise (the pickled MAX compares arrays)
         for i, ((new, guess), scale) in enumerate(zip(parts, scales)):
             weight = np.abs(new) + self.floor * scale
             ratio = np.divide(factor * (new - guess), weight, out=np.zeros_like(new), where=weight > 0.0)
