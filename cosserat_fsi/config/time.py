@@ -25,7 +25,9 @@ class _Stepping(_Section):
     (default 0.01) is the absolute floor of the relative error's weights, as a fraction of the field's largest
     value, so that a field's near-zero values do not decide the step. After a remesh the next p + 1 steps (p the
     scheme's order) keep the step proposed before it: the estimate does not reach back across the
-    interpolation. The δt of each step is the ``dt`` column of timeseries.csv."""
+    interpolation. An incompressible solid's volume correction acts over ``dt`` (fixed) instead of each
+    step (with ``solid.volume_correction_time``: the larger of the two). The δt of each step is the ``dt``
+    column of timeseries.csv."""
 
     dt: PositiveFloat
     t_end: PositiveFloat

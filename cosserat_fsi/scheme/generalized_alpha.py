@@ -100,7 +100,7 @@ class GeneralizedAlpha(TimeStep):
         return self.convection.material_derivative(f, rate)
 
     def _volume_correction_step(self):
-        return self.step_dt
+        return self.step_dt if self.correction_time is None else self.correction_time
 
     def _evaluation(self, u, omega_at, d_predicted):
         """The stresses at (u^{n+α_f}, ω^{n+α_f}); on a moving mesh the continuity equation div u^{n+α_f} = 0

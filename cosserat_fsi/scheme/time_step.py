@@ -77,6 +77,8 @@ class TimeStep:
         self.dt = float(scene.time.dt)  # the size of the step being taken
         self.control = TimeControl.of(scene.time, self.ORDER if self.ORDER else self.levels(scene.time), comm)
         self.fixed_step = self.control is None  # every step time.dt (t^n = nδt)
+        self.correction_time = (None if self.control is None
+                                else dolfinx.fem.Constant(problem.mesh, PETSc.ScalarType(self.dt)))
         mesh = problem.mesh
         self.alpha = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
         self.inv_dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0 / self.dt))
@@ -179,8 +181,10 @@ class TimeStep:
         return None, None
 
     def _volume_correction_step(self):
-        """The time over which the solid's volume correction acts (None: ``solid_dt``)."""
-        return None
+        """The time over which the solid's volume correction acts (None: ``solid_dt``; with ``time.tolerance``
+        the first step's ``time.dt``, fixed: a correction undone in each step moves the solid by its area
+        drift/δt, which does not fall with δt, and no step would meet the tolerance)."""
+        return self.correction_time
 
     # --------------------------------------------------------------------------- the forms
     def _forms(self, d_predicted=None):
