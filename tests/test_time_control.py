@@ -131,9 +131,11 @@ def test_judge_rules():
     assert not c.judge(state, 0.01, 1e6) and state.steps.next == 0.002  # 0.2 at most, then dt_min
     assert not c.judge(state, 0.01, None, DivergenceError("nan")) and state.steps.next == 0.0025
     state.steps.error = 0.5
-    e = 0.6  # 0.9 · 0.6^(-0.7/3) · 0.5^(0.4/3) = 0.926: shrinks
+    e = 0.8  # 0.9 · 0.8^(-0.7/3) · 0.5^(0.4/3) = 0.864: shrinks
     assert c.judge(state, 0.01, e)
     assert state.steps.next == pytest.approx(0.01 * 0.9 * e ** (-0.7 / 3) * 0.5 ** (0.4 / 3))
+    state.steps.error = 0.5
+    assert c.judge(state, 0.01, 0.6) and state.steps.next == 0.01  # 0.926: in the keep band [0.9, 1.2)
     state.steps.error = e = 0.3  # 0.9 · 0.3^(-0.1) = 1.06: kept
     assert c.judge(state, 0.01, e) and state.steps.next == 0.01
     assert state.steps.rejected == 3
