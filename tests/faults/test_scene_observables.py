@@ -51,7 +51,7 @@ CASES = {  # --set -> the expected message (after "error: ")
                       "observables.points.C: point (2.5, 0.5) is outside the mesh"),
     "ref_unknown_column": ("reference={drag: {value: 1.0, tolerance: 0.1}}",
                            "reference.drag: not a column of this scene's timeseries.csv"),
-    "ref_time_column": ("reference={t: {value: 1.0, tolerance: 0.1}}", "reference.t: not a column"),
+    "ref_time_column": ("reference={t: {value: 1.0, tolerance: 0.1}}", "reference.t: the time and the step size are not observables"),
     "ref_negative_tolerance": ("reference={u_C: {value: 1.0, tolerance: -0.1}}",
                                "reference.u_C.tolerance: must be > 0"),
     "ref_zero_tolerance": ("reference={u_C: {value: 1.0, tolerance: 0}}", "reference.u_C.tolerance: must be > 0"),
