@@ -255,33 +255,37 @@ def table(rows: list[dict]) -> str:
 
 
 def figure(rows: list[dict], path: Path, title: str) -> None:
-    """Pareto plot: |amplitude error| against wall time, the fixed δt and each tolerance."""
+    """Pareto plot: |amplitude error| and |frequency error| against wall time, the fixed δt and each tolerance,
+    with the bands."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     done = [r for r in rows if r.get("status") == "completed" and r.get("amplitude_error") is not None]
-    fig, ax = plt.subplots(figsize=(5.5, 4.0))
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
     adaptive = sorted((r for r in done if r["tolerance"] is not None), key=lambda r: r["wall"])
-    if adaptive:
-        ax.plot([r["wall"] for r in adaptive], [100 * abs(r["amplitude_error"]) for r in adaptive], "o-",
-                label="adaptive (time.tolerance)")
-        for r in adaptive:
-            ax.annotate(f"{r['tolerance']:g}", (r["wall"], 100 * abs(r["amplitude_error"])), fontsize=8,
-                        textcoords="offset points", xytext=(4, 4))
-    for r in done:
-        if r["tolerance"] is None:
-            ax.plot(r["wall"], 100 * abs(r["amplitude_error"]), "s", color="k", label=f"fixed δt {r['dt0']:g}")
-    if done:
-        ax.axhline(100 * TARGETS[SCENES[done[0]["scene"]][2]][0], ls="--", color="grey", label="amplitude band")
+    bands = TARGETS[SCENES[done[0]["scene"]][2]] if done else (None, None)
+    for part, style, band, colour in (("amplitude", "o-", bands[0], "C0"), ("frequency", "^--", bands[1], "C1")):
+        if adaptive:
+            ax.plot([r["wall"] for r in adaptive], [100 * abs(r[f"{part}_error"]) for r in adaptive], style,
+                    color=colour, label=f"adaptive, {part}")
+            for r in adaptive:
+                ax.annotate(f"{r['tolerance']:g}", (r["wall"], 100 * abs(r[f"{part}_error"])), fontsize=8,
+                            textcoords="offset points", xytext=(4, 4))
+        for r in done:
+            if r["tolerance"] is None:
+                ax.plot(r["wall"], 100 * abs(r[f"{part}_error"]), style[0], color="k", mfc="none",
+                        label=f"fixed δt {r['dt0']:g}, {part}")
+        if band is not None:
+            ax.axhline(100 * band, ls=":", color=colour, label=f"{part} band")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time (s, from rest, serial)")
-    ax.set_ylabel("|amplitude error| against the reference (%)")
+    ax.set_ylabel("|error| against the reference (%)")
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
