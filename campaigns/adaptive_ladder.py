@@ -61,9 +61,7 @@ def run_case(scene: str, tolerance: float | None, sets: dict, runs: Path) -> Pat
     """Run one case unless finished (a run stopped with exit 3 is kept and not run again either)."""
     config, base, _, _ = SCENES[scene]
     out = case_dir(runs, scene, tolerance, sets)
-    overrides = {**base, "output.fields": False, **sets}
-    if tolerance is not None:
-        overrides["time.tolerance"] = tolerance
+    overrides = {**base, "output.fields": False, "time.tolerance": tolerance, **sets}  # None: the fixed δt
     from cosserat_fsi.config import load_scene
 
     t_end = float(load_scene(ROOT / config, [f"{k}={v}" for k, v in overrides.items()]).time.t_end)

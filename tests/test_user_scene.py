@@ -107,7 +107,8 @@ def test_turek_hron_fsi3_equals_its_user_file_twin(repo_root, tmp_path):
     """configs/turek_hron_fsi3.yaml on level 0 and the same scene on the preset's mesh given as a user file
     (names inlet, outlet, walls, cylinder, interface; cells fluid, solid): the same time series to 1e-10."""
     preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
-                        ["geometry.level=0", "time.dt=0.01", "time.t_end=0.2", "inflow.ramp_time=0.1"])
+                        ["geometry.level=0", "time.dt=0.01", "time.tolerance=null", "time.t_end=0.2",
+                         "inflow.ramp_time=0.1"])
     msh = MPI.COMM_WORLD.bcast(build_msh(preset.geometry) if MPI.COMM_WORLD.rank == 0 else None)
     data = preset.model_dump(mode="json")
     data.update(benchmark=None, geometry={"name": "file", "path": str(msh)})
@@ -164,7 +165,8 @@ def test_turek_hron_fsi3_equals_its_user_file_twin_with_boundaries(repo_root, tm
     The preset's own conditions are the same mechanism (geometry/presets.py), so the two runs go through one
     boundary path."""
     preset = load_scene(repo_root / "configs" / "turek_hron_fsi3.yaml",
-                        ["geometry.level=0", "time.dt=0.01", "time.t_end=2.0", "inflow.ramp_time=0.1"])
+                        ["geometry.level=0", "time.dt=0.01", "time.tolerance=null", "time.t_end=2.0",
+                         "inflow.ramp_time=0.1"])
     data = preset.model_dump(mode="json")
     data.update(benchmark=None, inflow=None, geometry={"name": "file", "path": str(TUREK_HRON_GEO)}, boundaries={
         "inlet": {"type": "velocity", "value": [INFLOW, 0]}, "outlet": {"type": "do_nothing"},
