@@ -77,16 +77,11 @@ def run_case(scene: str, tolerance: float | None, sets: dict, runs: Path) -> Pat
     return out
 
 
-def run_one(out: str, config: str, sets: list[str], node_weights: bool = False, restart: bool = False) -> int:
+def run_one(out: str, config: str, sets: list[str], restart: bool = False) -> int:
     """The ``--one`` mode: the CLI's run, with every attempt of the step controller logged to attempts.csv
-    (``node_weights``: with node_weighted_error; ``restart``: continue ``out``'s checkpoint)."""
+    (``restart``: continue ``out``'s checkpoint)."""
     from cosserat_fsi.app import cli
     from cosserat_fsi.scheme import time_control
-
-    if node_weights:
-        from adaptive_diagnosis import node_weighted_error
-
-        time_control.TimeControl.error = node_weighted_error
 
     path = Path(out) / "attempts.csv"
     rows: list = []
@@ -95,27 +90,20 @@ def run_one(out: str, config: str, sets: list[str], node_weights: bool = False, 
 
     def located(self, stepper):
         """E, and where the velocity's part of it lives (serial only): the share of Σ ratio² in the largest
-        1 % of the dofs, E of u alone, and the place of the largest ratio."""
+        1 % of the nodes, E of u alone, and the place of the largest ratio."""
         e = error(self, stepper)
         self.where = (float("nan"),) * 4
         if e is None or self.comm.size > 1:
             return e
-        from cosserat_fsi.scheme.variable_step import estimate_factor, predicted
-
-        state, steps, dt = stepper.state, stepper.state.steps, stepper.dt
-        V = state.velocity.function_space
-        bs = V.dofmap.index_map_bs
-        owned = V.dofmap.index_map.size_local * bs
-        new = stepper._new_velocity()[:owned]
-        guess = predicted(self.order, dt, steps.last, steps.before, *[
-            f.x.array[:owned] for f in (state.velocity, state.velocity_prev, state.velocity_prev2)])
-        weight = np.abs(new) + self.floor * np.abs(new).max()
-        r2 = (estimate_factor(self.order, dt, steps.last, steps.before) * (new - guess) / weight) ** 2
+        parts = self.parts(stepper)[:1]
+        weights = self.weights(parts)
+        r2 = ((parts[0][0] / weights[0][:, None]) ** 2).sum(axis=1)
+        V = stepper.state.velocity.function_space
         if id(V) not in coordinates:
             coordinates[id(V)] = V.tabulate_dof_coordinates()
-        x = coordinates[id(V)][int(np.argmax(r2)) // bs]
+        x = coordinates[id(V)][int(np.argmax(r2))]
         top = np.sort(r2)[-max(1, len(r2) // 100):].sum() / max(r2.sum(), 1e-300)
-        self.where = (float(top), float(np.sqrt(r2.mean())) / self.step_tolerance, float(x[0]), float(x[1]))
+        self.where = (float(top), self.norm(parts, weights), float(x[0]), float(x[1]))
         return e
 
     def logged(self, state, dt, error, failure=None):
@@ -295,10 +283,9 @@ def main(argv=None) -> int:
         p = argparse.ArgumentParser()
         p.add_argument("--one", nargs=2)
         p.add_argument("--set", dest="sets", action="append", default=[])
-        p.add_argument("--node-weights", action="store_true")
         p.add_argument("--restart", action="store_true")
         a = p.parse_args()
-        return run_one(a.one[0], a.one[1], a.sets, a.node_weights, a.restart)
+        return run_one(a.one[0], a.one[1], a.sets, a.restart)
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", choices=sorted(SCENES))
     p.add_argument("--tolerances", type=float, nargs="*", default=[])

@@ -80,8 +80,9 @@ class TimeControl:
         return self.t_end - state.t <= 1e-9 * max(1.0, abs(self.t_end))
 
     # -------------------------------------------------------------------------------- the estimate
-    def error(self, stepper) -> float | None:
-        """E of the attempted step (module docstring), or None while there are too few levels."""
+    def parts(self, stepper) -> list[tuple[np.ndarray, np.ndarray]] | None:
+        """Per field (u; d at the solid's nodes), at its owned nodes as (nodes, components): the estimated
+        local error of the attempted step and the step's values; None while there are too few levels."""
         state, order = stepper.state, self.order
         transferred = state.steps.transferred  # the levels up to a remesh's are interpolated: wait for p + 1 new
         if state.step_count < order or (transferred > 0 and state.step_count - transferred <= order):
@@ -89,10 +90,11 @@ class TimeControl:
         steps, dt = state.steps, stepper.dt
         factor = estimate_factor(order, dt, steps.last, steps.before)
         V = state.velocity.function_space
-        owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+        bs = V.dofmap.index_map_bs
+        owned = V.dofmap.index_map.size_local * bs
         levels = [state.velocity, state.velocity_prev, state.velocity_prev2]
-        u_new, bs = stepper._new_velocity()[:owned], V.dofmap.index_map_bs
-        parts = [(u_new.reshape(-1, bs), predicted(order, dt, steps.last, steps.before, *[
+        u_new = stepper._new_velocity()[:owned].reshape(-1, bs)
+        fields = [(u_new, predicted(order, dt, steps.last, steps.before, *[
             f.x.array[:owned].reshape(-1, bs) if f is not None else None for f in levels]))]
         d_new = stepper.candidate_displacement()
         if d_new is not None:
@@ -102,21 +104,34 @@ class TimeControl:
 
             def at_nodes(f):
                 return None if f is None else f.x.array.reshape(-1, dim)[nodes[mine]]
-            parts.append((d_new[mine], predicted(order, dt, steps.last, steps.before, *map(
+            fields.append((d_new[mine], predicted(order, dt, steps.last, steps.before, *map(
                 at_nodes, (state.displacement, state.displacement_prev, state.displacement_prev2)))))
-        sums = np.zeros(2 * len(parts))
-        # a node's vector is weighted by its magnitude (rotation invariant: a component passing through zero
-        # in a vortex street is not measured against the floor alone)
-        sizes = [np.linalg.norm(new, axis=1) for new, _ in parts]
+        return [(factor * (new - guess), new) for new, guess in fields]
+
+    def weights(self, parts, floor: float | None = None) -> list[np.ndarray]:
+        """Each node's weight, per part: its magnitude + ``floor`` (default: the controller's) × the field's
+        largest magnitude on any rank (rotation invariant: a component passing through zero in a vortex street
+        is not measured against the floor alone)."""
+        floor = self.floor if floor is None else floor
+        sizes = [np.linalg.norm(new, axis=1) for _, new in parts]
         scales = np.array([size.max(initial=0.0) for size in sizes])
         self.comm.Allreduce(MPI.IN_PLACE, scales, op=MPI.MAX)  # elementwise (the pickled MAX compares arrays)
-        for i, ((new, guess), size, scale) in enumerate(zip(parts, sizes, scales)):
-            weight = (size + self.floor * scale)[:, None]
-            ratio = np.divide(factor * (new - guess), weight, out=np.zeros_like(new), where=weight > 0.0).ravel()
-            sums[2 * i:2 * i + 2] = (ratio @ ratio, len(ratio))
-        sums = self.comm.allreduce(sums, op=MPI.SUM)
-        total, count = sums[0::2].sum(), sums[1::2].sum()
+        return [size + floor * scale for size, scale in zip(sizes, scales)]
+
+    def norm(self, parts, weights) -> float:
+        """E: the weighted RMS over every owned dof of every part on all ranks, over the per-step tolerance."""
+        sums = np.zeros(2)
+        for (diff, _), weight in zip(parts, weights):
+            w = weight[:, None]
+            ratio = np.divide(diff, w, out=np.zeros_like(diff), where=w > 0.0).ravel()
+            sums += (ratio @ ratio, len(ratio))
+        total, count = self.comm.allreduce(sums, op=MPI.SUM)
         return float(np.sqrt(total / max(count, 1.0))) / self.step_tolerance
+
+    def error(self, stepper) -> float | None:
+        """E of the attempted step (module docstring), or None while there are too few levels."""
+        parts = self.parts(stepper)
+        return None if parts is None else self.norm(parts, self.weights(parts))
 
     def judge(self, state, dt: float, error: float | None, failure: DivergenceError | None = None) -> bool:
         """Accept (True: ``state.steps.next`` set) or reject (False: a smaller ``next``) the attempted step;
