@@ -170,6 +170,8 @@ def analyse(out: Path, scene: str, tolerance: float | None, fixed_summary: dict 
         if keep.any():
             row.update({f"dt_min{key}": float(dt[keep].min()), f"dt_max{key}": float(dt[keep].max()),
                         f"dt_median{key}": float(np.median(dt[keep]))})
+    if "rejected_steps" in s["time"]:
+        row["rejected"] = s["time"]["rejected_steps"]
     row.update(attempts(out))
     if (out / "cpu.json").exists():
         row["cpu"] = json.loads((out / "cpu.json").read_text())["cpu"]
@@ -205,6 +207,30 @@ def slope(rows: list[dict], against_finest: bool = False, part: str = "amplitude
     return float(np.polyfit(x, y, 1)[0])
 
 
+def extrapolated(rows: list[dict], part: str = "amplitude") -> dict | None:
+    """The time error's model over the completed adaptive rows, ``part`` = Q* + C·tol^s (least squares in Q*
+    and C for each s of a fine grid, the s of the smallest residual): Q* is the value of this mesh with no
+    time error, so Q*/reference − 1 is the mesh's (spatial) error floor and |Q(tol) − Q*| the time error,
+    without assuming that the finest tolerance has none. None with fewer than four rows."""
+    done = sorted((r for r in rows if r["tolerance"] is not None and r.get(part) is not None
+                   and r.get("status") == "completed"), key=lambda r: r["tolerance"])
+    if len(done) < 4:
+        return None
+    tol, q = np.array([r["tolerance"] for r in done]), np.array([r[part] for r in done])
+    best = None
+    for s in np.linspace(0.2, 3.0, 561):
+        basis = np.column_stack([np.ones_like(tol), tol ** s])
+        coef, *_ = np.linalg.lstsq(basis, q, rcond=None)
+        residual = float(np.linalg.norm(basis @ coef - q))
+        if best is None or residual < best[0]:
+            best = (residual, s, coef)
+    residual, s, (q_star, c) = best
+    reference = done[0][part] / (1.0 + done[0][f"{part}_error"])
+    return {"part": part, "slope": float(s), "value": float(q_star), "C": float(c), "residual": residual,
+            "floor": float(q_star / reference - 1.0), "tolerances": tol.tolist(),
+            "time_errors": (np.abs(q - q_star) / abs(q_star)).tolist()}
+
+
 def _pct(x):
     return "–" if x is None else f"{100 * x:+.2f} %"
 
@@ -237,6 +263,11 @@ def table(rows: list[dict]) -> str:
         p, q = slope(rows, part=part), slope(rows, against_finest=True, part=part)
         lines += ["", f"log–log slope of |{part} error| against the tolerance: {_g(p, '.2f')} (against the "
                   f"reference), {_g(q, '.2f')} (against the finest tolerance's {part})"]
+        fit = extrapolated(rows, part)
+        if fit is not None:
+            errors = ", ".join(f"{t:g}: {100 * e:.3f} %" for t, e in zip(fit["tolerances"], fit["time_errors"]))
+            lines.append(f"{part} = Q* + C·tol^s: s = {fit['slope']:.2f}, Q* = {fit['value']:.6g} (the mesh's "
+                         f"floor: {_pct(fit['floor'])} against the reference); time error |Q − Q*|/Q*: {errors}")
     return "\n".join(lines)
 
 

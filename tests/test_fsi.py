@@ -10,6 +10,7 @@ import pytest
 from mpi4py import MPI
 
 from cosserat_fsi.config import validate_scene
+from cosserat_fsi.io import read_timeseries
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.simulation import Simulation
@@ -233,6 +234,29 @@ def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "diverged"
     assert len((out / "timeseries.csv").read_text().splitlines()) >= 2  # the steps before it are kept
+
+
+@pytest.mark.slow
+def test_an_adaptive_step_the_mesh_cannot_follow_is_rejected(run_cli, tmp_path):
+    """The same disk with time.tolerance: the first step of 0.05, which would invert cells, is rejected and
+    taken in four, and the run goes on with steps the mesh can follow; once the disk meets the floor even
+    time.dt_min fails: exit 3 naming the time, dt_min and the cell, the steps so far kept."""
+    cfg = tmp_path / "box.yaml"
+    cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
+                   "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\n"
+                   "time: {scheme: characteristics1, dt: 0.05, t_end: 1.0, tolerance: 0.1, dt_min: 0.001}\n")
+    out = tmp_path / "out"
+    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
+    assert proc.returncode == 3, proc.stderr
+    line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
+    assert len(line) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert re.search(r"a step of time\.dt_min = 0\.001 failed too: t = [\d.]+: the mesh motion would make a "
+                     r"cell inverted near \(", line[0]), line[0]
+    summary = json.loads((out / "summary.json").read_text())
+    series = read_timeseries(out / "timeseries.csv")
+    assert series["dt"][0] == pytest.approx(0.0125, rel=1e-12)  # 0.05 rejected, then a quarter of it
+    assert summary["time"]["steps"] >= 10 and summary["time"]["rejected_steps"] >= 2
+    assert series["t"][-1] > 0.05  # past the fixed step's first (inverting) step
 
 
 @pytest.mark.slow

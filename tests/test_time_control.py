@@ -33,8 +33,8 @@ class FakeStepper:
 
     advance = TimeStep.advance
 
-    def __init__(self, control, error):
-        self.control, self.error = control, error
+    def __init__(self, control, error, motion_fails=lambda t, dt: False):
+        self.control, self.error, self.motion_fails = control, error, motion_fails
         self.state = SimpleNamespace(t=0.0, step_count=0, steps=StepSizes())
         self.attempts, self.accepted, self.rejections = [], [], 0
         control.error = lambda stepper: None if stepper.state.step_count < 2 else self.error(stepper.state.t,
@@ -46,6 +46,10 @@ class FakeStepper:
         if self.attempts[-1][0] == (self.attempts[-2][0] if len(self.attempts) > 1 else -1):
             assert self.attempts[-1][2] == self.attempts[-2][2]  # retried from the same t^n
         self.t_new = self.control.time_after(s, self.dt)
+
+    def check_motion(self):
+        if self.motion_fails(self.state.t, self.dt):
+            raise DivergenceError(f"t = {self.t_new:.6g}: the mesh motion would make a cell inverted")
 
     def _rejected(self):
         self.rejections += 1
@@ -64,8 +68,8 @@ def _bumpy(t, dt):
     return (dt / scale) ** 3
 
 
-def _run(control, error=_bumpy):
-    stepper = FakeStepper(control, error)
+def _run(control, error=_bumpy, motion_fails=lambda t, dt: False):
+    stepper = FakeStepper(control, error, motion_fails)
     while not control.finished(stepper.state):
         stepper.advance()
     return stepper
@@ -96,6 +100,23 @@ def test_the_controller_contract_on_a_scripted_error():
                 assert first_next <= tries[-1] * (1 + 1e-12), step  # no growth right after a rejection
     assert s.steps.smallest == dts.min() and s.steps.largest == dts.max()
     assert dts.max() / dts.min() > 10.0  # the feature at t = 0.4 did shape the steps
+
+
+def test_a_step_the_mesh_cannot_follow_is_rejected_and_retried_smaller():
+    """A mesh motion that fails (here: any step longer than 0.004 that reaches into [0.3, 0.35)) rejects the
+    step like a non-finite solution (δt / 4), the run goes on; failing even at dt_min, it stops naming the
+    failure."""
+    def fails(t, dt):
+        return t < 0.35 and t + dt > 0.3 and dt > 0.004
+
+    stepper = _run(_control(t_end=1.0), lambda t, dt: 1e-3, fails)
+    times = np.cumsum([0.0] + stepper.accepted[:-1])
+    assert stepper.state.t == 1.0 and stepper.rejections == stepper.state.steps.rejected >= 1
+    assert not any(fails(t, dt) for t, dt in zip(times, stepper.accepted))
+    retried = [(a, b) for a, b in zip(stepper.attempts, stepper.attempts[1:]) if a[0] == b[0]]
+    assert retried and all(b[1] == pytest.approx(a[1] / 4.0) for a, b in retried)
+    with pytest.raises(DivergenceError, match=r"a step of time\.dt_min = 0\.001 failed too: t = [\d.]+: the mesh"):
+        _run(_control(t_end=1.0, dt_min=1e-3), lambda t, dt: 1e-3, lambda t, dt: t >= 0.3)
 
 
 def test_a_step_rejected_at_dt_min_stops_the_run_naming_its_time():

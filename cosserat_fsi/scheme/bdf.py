@@ -36,6 +36,7 @@ class BdfStep(TimeStep):
         self.motion_base = np.zeros_like(self.solve_displacement.x.array) if self.extrapolate else None
         self.passes = 0  # re-solves per BDF2 step (time.corrector_passes, :meth:`_pass`)
         self._alpha_of_A = None
+        self._velocity_now = None  # check_motion(): the attempted step's velocity
 
     def _build_forms(self):
         """The step's forms and right-hand side vector (once the subclass has set up what they use)."""
@@ -154,6 +155,21 @@ class BdfStep(TimeStep):
         self.motion.place(E, self.state.t)
         self.histories.mesh_moved(rebuild=True)
 
+    def _motion_base(self):
+        """s* of the solid vertices' move (None: s^n)."""
+        return (None if self.order == 1 else self.motion_base if self.motion_base is not None
+                else self.solve_displacement.x.array)
+
+    def check_motion(self) -> None:
+        """The attempted step's mesh motion, checked before the step is accepted (MeshMotion.plan)."""
+        if not hasattr(self.motion, "plan"):
+            return
+        if self._velocity_now is None:
+            self._velocity_now = dolfinx.fem.Function(self.state.velocity.function_space)
+        self._velocity_now.x.array[:] = self._new_velocity()
+        with self.timers("mesh_motion"):
+            self.motion.plan(self._velocity_now, self.dt, self.t_new, self.bdf.alpha, self._motion_base())
+
     def _move_mesh(self, bdf: BdfWeights):
         """Ω^n → Ω^{n+1} (mesh motion) and the mesh velocity; BDF2 keeps the configurations."""
         state, m = self.state, self.motion
@@ -162,8 +178,6 @@ class BdfStep(TimeStep):
             state.configuration_n.x.array[:] = self.solve_displacement.x.array
             state.mesh_displacement_prev.x.array[:] = m.displacement.x.array
             self.histories.remember_configuration()
-        base = (None if self.order == 1 else self.motion_base if self.motion_base is not None
-                else self.solve_displacement.x.array)
-        w_P1 = m.move(state.velocity, self.dt, state.t, bdf.alpha, base)
+        w_P1 = m.move(state.velocity, self.dt, state.t, bdf.alpha, self._motion_base())
         state.mesh_velocity.interpolate(w_P1)
         self.histories.mesh_moved(rebuild=self.order == 2)

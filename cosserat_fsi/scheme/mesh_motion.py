@@ -120,6 +120,7 @@ class MeshMotion(_MovingMesh):
         self.method = method
         M, tdim = self.M, mesh.topology.dim
         self.solid_displacement = dolfinx.fem.Function(M)
+        self._planned_solid, self.planned = dolfinx.fem.Function(M), None  # plan(): s^{n+1} and its extension
         self._u_P1 = dolfinx.fem.Function(M)
         solid_cells = cell_tags.indices[cell_tags.values == SOLID]
         self.solid_dofs = dolfinx.fem.locate_dofs_topological(M, tdim, solid_cells)
@@ -214,15 +215,39 @@ class MeshMotion(_MovingMesh):
     def move(self, velocity, dt: float, t: float, alpha: float = 1.0, base: np.ndarray | None = None):
         """Solid vertices: s^{n+1} = s* + (δt/α) u^{n+1}, as the displacement d, with s* = s^n (first order)
         or the given ``base`` (BDF2: the extrapolated displacement (4D^n − D^{n−1})/3, a P1 dof array);
-        fluid vertices: harmonic extension. Returns the mesh velocity (P1)."""
+        fluid vertices: harmonic extension. Returns the mesh velocity (P1). The move checked by :meth:`plan`
+        (same arguments) is taken as it was planned."""
+        planned, self.planned = self.planned, None
+        s, extended = planned if planned is not None else self._solid_and_extension(velocity, dt, t, alpha, base)
+        self.solid_displacement.x.array[:] = s
+        return self._apply(extended, dt, t)
+
+    def plan(self, velocity, dt: float, t: float, alpha: float = 1.0, base: np.ndarray | None = None) -> None:
+        """Check the move :meth:`move` would make with these arguments (the solid's gap to the walls, no cell
+        inverted or degenerate: DivergenceError otherwise) without making it: the mesh stays where it is,
+        and the next ``move`` takes the planned one. An adaptive step checks its motion this way before
+        it is accepted, so that a step the mesh cannot follow is rejected, not the end of the run."""
+        self.planned = None
+        s, extended = self._solid_and_extension(velocity, dt, t, alpha, base)
+        x = self.mesh.geometry.x
+        now = x.copy()
+        self.place(extended, t)
+        x[:] = now
+        self.measure_quality()
+        self.planned = s, extended
+
+    def _solid_and_extension(self, velocity, dt, t, alpha, base):
+        """s^{n+1} (:meth:`move`), checked against the walls, and its extension (P1 dof arrays)."""
         self._u_P1.interpolate(velocity)
         entries = self._solid_entries
-        s = self.solid_displacement.x.array
-        s_star = s[entries] if base is None else base[entries]
-        s[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
-        self.solid_displacement.x.scatter_forward()
+        new = self._planned_solid
+        new.x.array[:] = self.solid_displacement.x.array
+        s_star = new.x.array[entries] if base is None else base[entries]
+        new.x.array[entries] = s_star + (dt / alpha) * self._u_P1.x.array[entries]
+        new.x.scatter_forward()
+        s = new.x.array.copy()
         self.walls.check(s, t)
-        return self._apply(self.extend(s), dt, t)
+        return s, self.extend(s)
 
     def velocity_of(self, velocity) -> np.ndarray:
         """The mesh velocity (P1 dof array) that the velocity field ``velocity`` gives the mesh: its values

@@ -14,8 +14,10 @@ scheme's order. The per-step tolerance tol^{(p+1)/p} makes the delivered error p
 ∝ δt^p = τ^{p/(p+1)}). E ≤ 1 accepts the step; the next one is δt·min(2, max(0.2, 0.9 E^{−0.7/k}
 E_prev^{0.4/k})), k = p + 1 (the PI controller of Gustafsson; Hairer & Wanner IV.2), kept unchanged when the
 factor is between 0.9 and 1.2 (a fixed mesh's matrix is then refactorised only for a real change) and within
-[``dt_min``, ``dt_max``]. E > 1 (or a non-finite solution) rejects it: it is tried again from the same state
-with δt·max(0.2, 0.9 E^{−1/k}) (0.25 after a non-finite solution), not below ``dt_min``; a step rejected at
+[``dt_min``, ``dt_max``]. E > 1 rejects it, and so does a failed step: a non-finite solution, or (the BDF
+steps) a mesh motion the step would need that puts the solid within the gap of a wall or inverts a cell
+(TimeStep.check_motion). It is tried again from the same state with δt·max(0.2, 0.9 E^{−1/k}) (0.25 after
+a failure), not below ``dt_min``; a step rejected at
 ``dt_min`` stops the run (DivergenceError: exit 3). The first p steps take ``time.dt``: the predictor needs
 p + 1 earlier levels, and so do the p + 1 steps after a remesh (State.transfer_to: the carried levels are
 interpolations, and the solution's jump onto the new mesh is not an error a smaller step reduces). The last
@@ -155,9 +157,12 @@ class TimeControl:
             return True
         steps.rejected += 1
         self._rejected_now = True
-        what = (f"a non-finite solution ({failure})" if failure is not None
+        what = (f"the step failed: {failure}" if failure is not None
                 else f"error estimate {error * self.step_tolerance:.3g} > {self.step_tolerance:.3g}")
         if dt <= self.dt_min * (1.0 + 1e-9):
+            if failure is not None:
+                raise DivergenceError(f"t = {state.t:.6g}: a step of time.dt_min = {self.dt_min:g} failed too: "
+                                      f"{failure}")
             raise DivergenceError(f"t = {state.t:.6g}: a step of time.dt_min = {self.dt_min:g} is rejected "
                                   f"({what}); the time.tolerance cannot be met: lower time.dt_min, or raise "
                                   f"time.tolerance")

@@ -93,8 +93,8 @@ class TimeStep:
     def advance(self, observe=None, dt: float | None = None) -> None:
         """One step t^n → t^{n+1} (module docstring): of size ``dt`` if given (the controller is not asked),
         else with ``time.tolerance`` the step size the controller proposes, attempted until its error estimate
-        is accepted (a non-finite solution counts as a rejection), else ``time.dt``; ``observe()`` after the
-        solve, on the mesh solved on."""
+        is accepted (a non-finite solution, or a mesh motion that fails, counts as a rejection), else
+        ``time.dt``; ``observe()`` after the solve, on the mesh solved on."""
         control = self.control
         if dt is not None:
             self.dt, self.fixed_step = float(dt), False
@@ -107,6 +107,8 @@ class TimeStep:
             try:
                 self._attempt()
                 error = control.error(self)
+                if error is None or error <= 1.0:  # to be accepted: can the mesh follow it?
+                    self.check_motion()
             except DivergenceError as exc:
                 error, failure = np.inf, exc
             else:
@@ -115,6 +117,11 @@ class TimeStep:
                 break
             self._rejected()
         self._commit(observe)
+
+    def check_motion(self) -> None:
+        """Before an attempted step is accepted: DivergenceError (a rejection) if the mesh cannot follow it
+        (the solid at a wall, a cell inverted); the BDF steps check it, generalised-α moves the mesh only
+        once the step is accepted (such a step then stops the run)."""
 
     def _time_after_step(self) -> float:
         """t^{n+1}: (n + 1)δt with a fixed step (no accumulated rounding), else t^n + δt."""
@@ -128,6 +135,7 @@ class TimeStep:
         """After a rejected attempt: the mesh back at Ω^n (the next attempt places it where it solves)."""
         if self.motion is not None:
             m = self.motion
+            m.planned = None
             m.place(m.displacement.x.array, self.state.t)
             self.histories.mesh_moved(rebuild=False)
 
