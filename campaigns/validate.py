@@ -418,6 +418,8 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
         if s["time"].get("convection") == "ale" and scheme == "BDF2":  # a summary from before ale_bdf2
             scheme += ", ale"
         dt = "–" if s["time"]["scheme"] == "steady" else s["time"]["dt"]
+        if s["time"].get("tolerance") is not None:  # the step chosen by time.tolerance: its range
+            dt = f"tol {s['time']['tolerance']:g} ({s['time']['dt_smallest']:.2g}–{s['time']['dt_largest']:.2g})"
         status = "" if s["status"] == "completed" else f" ({s['status']})"
         found = observed(case, runs, s)
         if found is None:  # only summary.json is kept: the rows written when the run was there
