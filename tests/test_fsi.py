@@ -218,22 +218,29 @@ def test_closed_box_energy_never_increases():
     assert np.all(np.diff(energy) <= 1e-12 * energy[0]), np.diff(energy).max()
 
 
-@pytest.mark.slow
-def test_inverted_cell_stops_with_exit_3(run_cli, repo_root, tmp_path):
-    """A disk thrown across the box in one step would invert cells: exit 3, the time and place named,
-    and the output written so far kept."""
+def _diverged_box_run(run_cli, tmp_path, solid: str, time: str):
+    """A disk in the box (``solid``, ``time``: YAML flow mappings) that must stop with exit 3: the one
+    "diverged:" line (no traceback), the summary and the time series."""
     cfg = tmp_path / "box.yaml"
-    cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
-                   "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\n"
-                   "time: {scheme: characteristics1, dt: 0.05, t_end: 1.0}\n")
+    cfg.write_text(f"geometry: {{name: box}}\nfluid: {{rho: 1.0, mu: 0.01}}\nsolid: {solid}\ntime: {time}\n")
     out = tmp_path / "out"
     proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
     assert proc.returncode == 3, proc.stderr
     line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
-    assert len(line) == 1 and "near (" in line[0] and "t = " in line[0] and "Traceback" not in proc.stderr
+    assert len(line) == 1 and "Traceback" not in proc.stderr, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "diverged"
-    assert len((out / "timeseries.csv").read_text().splitlines()) >= 2  # the steps before it are kept
+    return line[0], summary, read_timeseries(out / "timeseries.csv")
+
+
+@pytest.mark.slow
+def test_inverted_cell_stops_with_exit_3(run_cli, tmp_path):
+    """A disk thrown across the box in one step would invert cells: exit 3, the time and place named,
+    and the output written so far kept."""
+    line, _, series = _diverged_box_run(run_cli, tmp_path, "{rho: 1.0, mu_s: 100.0, gravity: 400.0}",
+                                        "{scheme: characteristics1, dt: 0.05, t_end: 1.0}")
+    assert "near (" in line and "t = " in line
+    assert len(series["t"]) >= 1  # the steps before it are kept
 
 
 @pytest.mark.slow
@@ -241,19 +248,11 @@ def test_an_adaptive_step_the_mesh_cannot_follow_is_rejected(run_cli, tmp_path):
     """The same disk with time.tolerance: the first step of 0.05, which would invert cells, is rejected and
     taken in four, and the run goes on with steps the mesh can follow; once the disk meets the floor even
     time.dt_min fails: exit 3 naming the time, dt_min and the cell, the steps so far kept."""
-    cfg = tmp_path / "box.yaml"
-    cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
-                   "solid: {rho: 1.0, mu_s: 100.0, gravity: 400.0}\n"
-                   "time: {scheme: characteristics1, dt: 0.05, t_end: 1.0, tolerance: 0.1, dt_min: 0.001}\n")
-    out = tmp_path / "out"
-    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
-    assert proc.returncode == 3, proc.stderr
-    line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
-    assert len(line) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    line, summary, series = _diverged_box_run(
+        run_cli, tmp_path, "{rho: 1.0, mu_s: 100.0, gravity: 400.0}",
+        "{scheme: characteristics1, dt: 0.05, t_end: 1.0, tolerance: 0.1, dt_min: 0.001}")
     assert re.search(r"a step of time\.dt_min = 0\.001 failed too: t = [\d.]+: the mesh motion would make a "
-                     r"cell inverted near \(", line[0]), line[0]
-    summary = json.loads((out / "summary.json").read_text())
-    series = read_timeseries(out / "timeseries.csv")
+                     r"cell inverted near \(", line), line
     assert series["dt"][0] == pytest.approx(0.0125, rel=1e-12)  # 0.05 rejected, then a quarter of it
     assert summary["time"]["steps"] >= 10 and summary["time"]["rejected_steps"] >= 2
     assert series["t"][-1] > 0.05  # past the fixed step's first (inverting) step
@@ -263,22 +262,14 @@ def test_an_adaptive_step_the_mesh_cannot_follow_is_rejected(run_cli, tmp_path):
 def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
     """A disk sinking onto the box's floor: within ``wall_gap`` of the wall the run stops with
     exit 3 and a message naming the wall, the place and the time; the output so far is kept."""
-    cfg = tmp_path / "box.yaml"
-    cfg.write_text("geometry: {name: box}\nfluid: {rho: 1.0, mu: 0.01}\n"
-                   "solid: {rho: 10.0, mu_s: 100.0, gravity: 2.0, mesh_motion: {wall_gap: 0.1}}\n"
-                   "time: {scheme: characteristics1, dt: 0.01, t_end: 2.0}\n")
-    out = tmp_path / "out"
-    proc = run_cli("run", cfg, "--out", out, "--no-progress", timeout=300)
-    assert proc.returncode == 3, proc.stderr
-    line = [x for x in proc.stderr.splitlines() if x.startswith("diverged:")]
-    assert len(line) == 1 and "Traceback" not in proc.stderr, proc.stderr
-    match = re.search(r"the solid is within 0\.1 of the wall near \(([-\d.e]+), ([-\d.e]+)\) at t = ([\d.]+)",
-                      line[0])
-    assert match, line[0]
+    line, _, series = _diverged_box_run(run_cli, tmp_path,
+                                        "{rho: 10.0, mu_s: 100.0, gravity: 2.0, mesh_motion: {wall_gap: 0.1}}",
+                                        "{scheme: characteristics1, dt: 0.01, t_end: 2.0}")
+    match = re.search(r"the solid is within 0\.1 of the wall near \(([-\d.e]+), ([-\d.e]+)\) at t = ([\d.]+)", line)
+    assert match, line
     x, y, t = map(float, match.groups())
     assert abs(x - 0.5) < 0.05 and 0.09 < y < 0.1 and 0.3 < t < 1.0  # the bottom of the disk, on its way down
-    assert json.loads((out / "summary.json").read_text())["status"] == "diverged"
-    assert len((out / "timeseries.csv").read_text().splitlines()) >= 10
+    assert len(series["t"]) >= 9
 
 
 @pytest.mark.mpi
