@@ -55,9 +55,9 @@ def read_regular(path: str | os.PathLike, what: str = "file", prefix: str = "", 
         raise InputError(f"{prefix}{path}: could not read ({exc.strerror or exc.__class__.__name__})") from None
 
 
-def refuse_link(path: str | os.PathLike, prefix: str = "--out: ") -> None:
+def refuse_link(path: str | os.PathLike, prefix: str = "--out: ", folder: bool = False) -> None:
     """InputError if the output name ``path`` is taken by a link (even a dangling one) or by something that
-    is not a regular file; nothing is written through a link out of the run folder."""
+    is not a regular file (``folder``: not a folder); nothing is written through a link out of the run folder."""
     path = Path(path)
     try:
         mode = os.lstat(path).st_mode
@@ -69,24 +69,11 @@ def refuse_link(path: str | os.PathLike, prefix: str = "--out: ") -> None:
         raise InputError(f"{prefix}{path}: cannot check it ({exc.strerror or exc})") from None
     if stat.S_ISLNK(mode):
         raise InputError(f"{prefix}{path} is a link (nothing is written through a link; move it away)")
-    if not stat.S_ISREG(mode):
+    if folder and not stat.S_ISDIR(mode):
+        raise InputError(f"{prefix}{path} is not a folder (move it away)")
+    if not folder and not stat.S_ISREG(mode):
         raise InputError(f"{prefix}{path} is not a regular file (a folder or a link has the name of an output "
                          "file; move it away)")
-
-
-def refuse_link_dir(path: str | os.PathLike, prefix: str = "--out: ") -> None:
-    """InputError if the output folder name ``path`` is taken by a link or by something that is not a folder."""
-    path = Path(path)
-    try:
-        mode = os.lstat(path).st_mode
-    except FileNotFoundError:
-        return
-    except OSError as exc:
-        raise InputError(f"{prefix}{path}: cannot check it ({exc.strerror or exc})") from None
-    if stat.S_ISLNK(mode):
-        raise InputError(f"{prefix}{path} is a link (nothing is written through a link; move it away)")
-    if not stat.S_ISDIR(mode):
-        raise InputError(f"{prefix}{path} is not a folder (move it away)")
 
 
 FREE_MARGIN = 1 << 20

@@ -212,7 +212,7 @@ class Simulation:
         control = self.time_control
         if control is None:
             return self.step_count >= self.steps_to(t_end)
-        return t_end - self.t <= 1e-9 * max(1.0, abs(t_end))
+        return control.finished(self.state, t_end)
 
     @property
     def time_control(self):

@@ -244,9 +244,9 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None, times: Sequence
         missing = "fields.xdmf" if (run_dir / "fields.h5").exists() else "fields.h5"
         raise InputError(f"{run_dir / missing} is missing (fields.h5 and fields.xdmf go together)")
     out = Path(out) if out else run_dir / "plots"
-    from ..files import refuse_link_dir
+    from ..files import refuse_link
 
-    refuse_link_dir(out, "--out: ")  # never written through a link (PNGs replace their names: tmp + rename)
+    refuse_link(out, "--out: ", folder=True)  # never written through a link (PNGs replace their names: tmp + rename)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

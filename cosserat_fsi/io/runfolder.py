@@ -31,7 +31,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import InputError, OutputError
-from ..files import refuse_link, refuse_link_dir
+from ..files import refuse_link
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -175,13 +175,13 @@ class RunFolder:
                 held.append(name)
         for name in RUN_DIRS:
             p = out / name
-            refuse_link_dir(p)
+            refuse_link(p, folder=True)
             if p.is_dir():
                 held.append(name)
                 for inner in p.iterdir():  # meta.json, rank files: never written or removed through a link
                     refuse_link(inner)
         for name in ("plots", "meshes"):  # plot PNGs, the meshes of automatic remeshing
-            refuse_link_dir(out / name)
+            refuse_link(out / name, folder=True)
             if (out / name).is_dir():
                 for inner in (out / name).iterdir():
                     refuse_link(inner)

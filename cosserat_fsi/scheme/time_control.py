@@ -78,8 +78,10 @@ class TimeControl:
         t = state.t + dt
         return self.t_end if abs(t - self.t_end) <= 1e-9 * max(1.0, abs(self.t_end)) else t
 
-    def finished(self, state) -> bool:
-        return self.t_end - state.t <= 1e-9 * max(1.0, abs(self.t_end))
+    def finished(self, state, t_end: float | None = None) -> bool:
+        """Has ``state`` reached ``t_end`` (default: the scene's time.t_end)?"""
+        t_end = self.t_end if t_end is None else t_end
+        return t_end - state.t <= 1e-9 * max(1.0, abs(t_end))
 
     # -------------------------------------------------------------------------------- the estimate
     def parts(self, stepper) -> list[tuple[np.ndarray, np.ndarray]] | None:
