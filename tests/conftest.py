@@ -165,3 +165,18 @@ def _free_mpi_objects():
     import gc
 
     gc.collect()
+
+
+@pytest.fixture
+def shared_tmp():
+    """A temporary directory shared by all ranks of COMM_WORLD (removed after the test)."""
+    import tempfile
+
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    path = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
+    yield path
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path)

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -48,15 +46,6 @@ def _fields(sim) -> np.ndarray:
     s = sim.state
     return np.concatenate([s.velocity.x.array, s.pressure.x.array, s.displacement.x.array])
 
-
-@pytest.fixture
-def shared_tmp():
-    comm = MPI.COMM_WORLD
-    path = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
-    yield path
-    comm.barrier()
-    if comm.rank == 0:
-        shutil.rmtree(path)
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)

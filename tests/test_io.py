@@ -5,7 +5,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -137,16 +136,6 @@ def check_files(path: Path):
                          "id": ("Scalar", "Cell"), "centroid": ("Vector", "Cell")}
         assert refs[f"/point/v/{k:06d}"] == ((NX + 1) * (NY + 1), 3)
 
-
-@pytest.fixture
-def shared_tmp():
-    """A temporary directory shared by all ranks of COMM_WORLD."""
-    comm = MPI.COMM_WORLD
-    path = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
-    yield path
-    comm.barrier()
-    if comm.rank == 0:
-        shutil.rmtree(path)
 
 
 @pytest.mark.mpi

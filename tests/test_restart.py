@@ -8,7 +8,6 @@ import json
 import shutil
 import signal
 import subprocess
-import tempfile
 import time
 from pathlib import Path
 
@@ -55,15 +54,6 @@ def run_keeping_checkpoint(scene, out: Path, comm, step: int) -> Path:
         runner.write_checkpoint = original
     return kept
 
-
-@pytest.fixture
-def shared_tmp():
-    comm = MPI.COMM_WORLD
-    path = Path(comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None, root=0))
-    yield path
-    comm.barrier()
-    if comm.rank == 0:
-        shutil.rmtree(path)
 
 
 def _fields(path: Path) -> dict:
