@@ -64,11 +64,12 @@ def run_case(scene: str, tolerance: float | None, sets: dict, runs: Path) -> Pat
     overrides = {**base, "output.fields": False, "time.tolerance": tolerance, **sets}  # None: the fixed δt
     from cosserat_fsi.config import load_scene
 
-    t_end = float(load_scene(ROOT / config, [f"{k}={v}" for k, v in overrides.items()]).time.t_end)
+    args = [f"{k}={'null' if v is None else v}" for k, v in overrides.items()]
+    t_end = float(load_scene(ROOT / config, args).time.t_end)
     if finished(out, t_end) or (out / "exit_code").exists() and (out / "exit_code").read_text().strip() == "3":
         return out
     cmd = [sys.executable, str(Path(__file__).resolve()), "--one", str(out), str(ROOT / config)]
-    cmd += [a for k, v in overrides.items() for a in ("--set", f"{k}={'null' if v is None else v}")]
+    cmd += [a for s in args for a in ("--set", s)]
     print(f"running {out.name}", flush=True)
     tic = time.perf_counter()
     code = subprocess.run(cmd, check=False).returncode
