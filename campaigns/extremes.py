@@ -85,6 +85,10 @@ def run_case(case_id: str, runs: Path, python: str | None = None, extra: dict | 
     return app_cases.run_case(_case(case_id, runs, extra), python)
 
 
+# what the adaptive runs at the extremes show (adaptive_section)
+ADAPTIVE_WHY = {}
+
+
 def _case(case_id: str, runs: Path, extra: dict | None = None) -> app_cases.Case:
     if case_id in LARGE:
         return app_cases.Case(ROOT / LARGE[case_id][1], runs / f"extreme-{case_id}", dict(extra or {}), LARGE_RANKS)
@@ -139,9 +143,32 @@ def write_report(runs: Path, out: Path) -> Path:
              "finite energy below "
              f"{ENERGY_BOUND:g} × ½ ρ_f Ū² |channel| (the scale column divides by that), or stopped with exit "
              "code 3 and a `diverged:` message naming when and where — never a silent NaN.", "", *rows, ""]
+    lines += adaptive_section(out / "perf" / "adaptive" / "extremes.json")
     path = out / "extremes.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
+
+
+def adaptive_section(rows_file: Path) -> list[str]:
+    """The adaptive step (``time.tolerance``) against the fixed δt on the extreme scenes: the rows that
+    campaigns/adaptive_ladder.py wrote to ``rows_file`` (its table per scene), and what they show."""
+    if not rows_file.exists():
+        return []
+    sys.path.insert(0, str(ROOT / "campaigns"))
+    from adaptive_ladder import SCENES, table
+
+    rows = json.loads(rows_file.read_text())
+    lines = ["## The adaptive step at the extremes", "",
+             "`python campaigns/adaptive_ladder.py --scene SCENE --fixed --tolerances … --json "
+             f"{rows_file.relative_to(ROOT)}` (L1, from rest, serial; the errors are the periodic analysis of "
+             "the scene's observable over the second half in time against the benchmark's reference):", ""]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        config, overrides, name, _ = SCENES[scene]
+        lines += [f"### {scene}: `{config}`" + (f" with `{' '.join(f'{k}={v}' for k, v in overrides.items())}`"
+                                                if overrides else "") + f" ({name})", "",
+                  table([r for r in rows if r["scene"] == scene]).split("\n\nlog–log")[0], "",
+                  ADAPTIVE_WHY.get(scene, ""), ""]
+    return lines
 
 
 def main(argv=None) -> int:
