@@ -281,7 +281,9 @@ def figure(rows: list[dict], path: Path, title: str) -> None:
     import matplotlib.pyplot as plt
 
     done = [r for r in rows if r.get("status") == "completed" and r.get("amplitude_error") is not None]
-    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    fits = [f for f in (extrapolated(rows, part) for part in ("amplitude", "frequency")) if f is not None]
+    fig, axes = plt.subplots(1, 2 if fits else 1, figsize=(11.0 if fits else 6.0, 4.2), squeeze=False)
+    ax = axes[0, 0]
     adaptive = sorted((r for r in done if r["tolerance"] is not None), key=lambda r: r["wall"])
     bands = TARGETS[SCENES[done[0]["scene"]][2]] if done else (None, None)
     for part, style, band, colour in (("amplitude", "o-", bands[0], "C0"), ("frequency", "^--", bands[1], "C1")):
@@ -304,6 +306,21 @@ def figure(rows: list[dict], path: Path, title: str) -> None:
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
+    if fits:  # the time error |Q − Q*|/Q* against the tolerance, with the fitted power and slope 1
+        right = axes[0, 1]
+        for fit, style, colour in zip(fits, ("o-", "^--"), ("C0", "C1")):
+            tol = np.array(fit["tolerances"])
+            right.plot(tol, 100 * np.array(fit["time_errors"]), style, color=colour,
+                       label=f"{fit['part']}: Q* + C·tol^s, s = {fit['slope']:.2f}")
+        tol = np.array(fits[0]["tolerances"])
+        right.plot(tol, 100 * max(fits[-1]["time_errors"]) * tol / tol.max(), ":", color="k", label="slope 1")
+        right.set_xscale("log")
+        right.set_yscale("log")
+        right.set_xlabel("time.tolerance")
+        right.set_ylabel("time error |Q − Q*| / Q* (%)")
+        right.set_title("the time error against Q*, this mesh's value without it", fontsize=10)
+        right.grid(True, which="both", alpha=0.3)
+        right.legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
