@@ -46,6 +46,9 @@ def table(runs: Path, scenes: list[str]) -> list[str]:
         else:
             t = s["time"]
             solver = f"{t['scheme']}, {t['steps']} × δt {t['dt']:g}"
+            if t.get("tolerance") is not None:  # the step chosen by time.tolerance
+                solver = (f"{t['scheme']}, time.tolerance {t['tolerance']:g}: {t['steps']} steps, δt "
+                          f"{t['dt_smallest']:.2g}–{t['dt_largest']:.2g}, {t['rejected_steps']} rejected")
         mesh = s["mesh"]
         scene = f"`{name}` (L{mesh['level']}, {mesh['vertices']:,} vertices)"
         wall = f"{s['wall_time']['total']:.1f}"

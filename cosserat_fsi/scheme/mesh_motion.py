@@ -79,6 +79,12 @@ class _MovingMesh:
     def place(self, displacement: np.ndarray, t: float):
         """Put the mesh at X0 + displacement (P1 dof array) after checking its cells (DivergenceError and
         the mesh untouched if one would invert or degenerate). ``self.displacement`` is not changed."""
+        self._put(displacement, t)
+        self.measure_quality()
+        self.lowest_quality = min(self.min_quality, np.inf if self.lowest_quality is None else self.lowest_quality)
+
+    def _put(self, displacement: np.ndarray, t: float):
+        """:meth:`place` without measuring the cells' quality."""
         x, d = self.mesh.geometry.x, self.dim
         old = x[:, :d].copy()
         x[:, :d] = self.X0 + displacement.reshape(-1, d)[self.node_dof]
@@ -95,8 +101,6 @@ class _MovingMesh:
             raise DivergenceError(f"t = {t:.6g}: the mesh motion would make a cell {kind} near "
                                   f"({', '.join(f'{c:.4g}' for c in where)}); try a smaller time.dt, "
                                   f"or the deformation is too large for a moving mesh")
-        self.measure_quality()
-        self.lowest_quality = min(self.min_quality, np.inf if self.lowest_quality is None else self.lowest_quality)
 
     def measure_quality(self) -> None:
         """``min_quality`` (all cells) and ``min_fluid_quality`` (the cells a remesh replaces), all ranks."""
@@ -231,9 +235,8 @@ class MeshMotion(_MovingMesh):
         s, extended = self._solid_and_extension(velocity, dt, t, alpha, base)
         x = self.mesh.geometry.x
         now = x.copy()
-        self.place(extended, t)
+        self._put(extended, t)
         x[:] = now
-        self.measure_quality()
         self.planned = s, extended
 
     def _solid_and_extension(self, velocity, dt, t, alpha, base):
