@@ -39,6 +39,8 @@ def test_run_writes_the_contract_files(run_cli, repo_root, tmp_path):
     assert {"dolfinx", "petsc", "mpi"} <= set(s["versions"])
     assert {"backtrack", "assemble_vector", "solve"} <= set(s["wall_time"]["phases"])
     assert s["benchmark"]["c_D"]["reference"] == pytest.approx(5.57953523384)
+    # the linear solves: one LU of the fixed mesh's constant matrix serves the 10 steps
+    assert s["linear_solver"] == {"type": "direct: MUMPS LU", "solves": 10, "factorisations": 1}
     # fields.xdmf: t = 0 and every 5th step, each with its own geometry and the fields
     grids = ET.parse(out / "fields.xdmf").getroot().iter("Grid")
     times = [float(g.find("Time").get("Value")) for g in grids if g.find("Time") is not None]

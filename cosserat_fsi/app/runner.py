@@ -321,10 +321,9 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
         }
         # periodic analysis only of the periodic signals; the others are "steady" or "not periodic yet"
         summary["signals"], summary["periodic"] = classify_signals(series)
-        solver = getattr(sim.stepper, "solver", None)
-        if getattr(solver, "reuse", False):  # LU kept as GMRES preconditioner: how often it was renewed
-            summary["linear_solver"] = {"factorisations": int(solver.factorisations),
-                                        "krylov_iterations": int(solver.krylov_iterations)}
+        solver = getattr(sim.stepper, "solver", None) or getattr(sim.stepper, "newton", None)
+        if solver is not None and hasattr(solver, "counts"):  # what the linear solves did
+            summary["linear_solver"] = solver.counts()
         if sim.report is not None:  # steady solve: Newton's iterations and residuals
             summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):

@@ -52,6 +52,15 @@ def pressure_schur_matrix(problem) -> PETSc.Mat:
     return M
 
 
+def solve_counts(kind: str, solves: int, factorisations: int, iterations: int | None, largest: int) -> dict:
+    """summary.json's "linear_solver" record (``iterations`` None: a direct solve, no Krylov iterations)."""
+    record = {"type": kind, "solves": int(solves), "factorisations": int(factorisations)}
+    if iterations is not None:
+        record["krylov_iterations"] = {"total": int(iterations), "mean": iterations / max(solves, 1),
+                                       "max": int(largest)}
+    return record
+
+
 class LinearSolver:
     """``set_operator(A)`` after (re)assembly, ``solve(b, x)``; counts ``factorisations`` and
     ``krylov_iterations`` (GMRES reuse only) and exposes the PETSc ``ksp``."""
@@ -63,6 +72,8 @@ class LinearSolver:
         self.reuse = reuse_factorization and not self.iterative
         self.factorisations = 0
         self.krylov_iterations = 0
+        self.solves, self.max_krylov_iterations = 0, 0  # counts(): summary.json "linear_solver"
+        self._factorise = False  # direct: the operator changed since the last factorisation
         self.A = None
         self._configured = False
         ksp = self.ksp = PETSc.KSP().create(comm)
@@ -90,6 +101,7 @@ class LinearSolver:
         """The matrix changed (values, same pattern): a direct solver refactorises at the next solve, the
         reusing one keeps its factorisation as the preconditioner."""
         self.A = A
+        self._factorise = True
         self.ksp.setOperators(A)
         if not self._configured:
             if self.iterative:
@@ -141,13 +153,17 @@ class LinearSolver:
         """x = A⁻¹ b; with reuse, refactorise when GMRES does not converge in time."""
         ksp = self.ksp
         ksp.solve(b, x)
+        self.solves += 1
+        if not (self.iterative or self.reuse):  # preonly LU: a new operator is factorised at its first solve
+            self.factorisations += int(self._factorise)
+            self._factorise = False
+            return
+        self.max_krylov_iterations = max(self.max_krylov_iterations, ksp.getIterationNumber())
         if self.iterative:
             self.krylov_iterations += ksp.getIterationNumber()
             if ksp.getConvergedReason() <= 0:
                 raise DivergenceError(f"solver.type iterative: FGMRES did not converge in {ksp.getIterationNumber()} "
                                       f"iterations (reason {ksp.getConvergedReason()}); try solver.type: direct")
-            return
-        if not self.reuse:
             return
         self.krylov_iterations += ksp.getIterationNumber()
         if self.factorisations == 0 or ksp.getConvergedReason() <= 0:
@@ -158,6 +174,16 @@ class LinearSolver:
                 ksp.solve(b, x)
                 ksp.getPC().setReusePreconditioner(True)
             self.factorisations += 1
+
+    def counts(self) -> dict:
+        """The run's linear solves (summary.json "linear_solver"): the solver, solves, factorisations and,
+        for the Krylov modes, the iterations (total, mean and largest per solve)."""
+        kind = ("iterative: FGMRES, fieldsplit Schur (AMG " + self.config.amg + ")" if self.iterative
+                else "direct: MUMPS LU as GMRES preconditioner, refactorised when GMRES stalls" if self.reuse
+                else "direct: MUMPS LU")
+        return solve_counts(kind, self.solves, self.factorisations,
+                            None if not (self.iterative or self.reuse) else self.krylov_iterations,
+                            self.max_krylov_iterations)
 
     def converged_reason(self) -> int:
         return self.ksp.getConvergedReason()

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import compat
+from .linear_solver import solve_counts
 
 import dolfinx.fem.petsc as fem_petsc
 import ufl
@@ -68,6 +69,7 @@ class Newton:
         ksp.getPC().setFactorSolverType("mumps")
         ksp.setOperators(self.A)
         self._mumps = False
+        self.solves = 0  # with its own MUMPS: each solve follows a new Jacobian (a factorisation)
 
     # --------------------------------------------------------------------------------- pieces
     def apply_bcs(self):
@@ -100,6 +102,12 @@ class Newton:
             F.setMumpsIcntl(14, 200)  # workspace relaxation (%)
             F.setMumpsIcntl(24, 1)  # null-pivot detection
             self._mumps = True
+
+    def counts(self) -> dict:
+        """The linear solves of this Newton's iterations (LinearSolver.counts)."""
+        if self.linear_solver is not None:
+            return self.linear_solver.counts()
+        return solve_counts("direct: MUMPS LU", self.solves, self.solves, None, 0)
 
     def _set(self, x0, step: float):
         """state = x0 − step·δ."""
@@ -138,6 +146,7 @@ class Newton:
                 self.linear_solver.solve(self.b, self.delta)
             else:
                 self.ksp.solve(self.b, self.delta)
+                self.solves += 1
             self.x.copy(x0)
             step, trial = 1.0, np.inf
             for k in range(self.max_halvings + 1):
