@@ -36,6 +36,20 @@ def _index_set(space, names, comm) -> PETSc.IS:
     return PETSc.IS().createGeneral((local + imap.local_range[0] * bs).astype(PETSc.IntType), comm=comm)
 
 
+def pressure_mass_matrix(problem) -> PETSc.Mat:
+    """(p, p̃) on the mixed space (zero outside the pressure block), assembled."""
+    import dolfinx.fem.petsc as fem_petsc
+    import ufl
+
+    from .. import compat
+
+    W = problem.space.W
+    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
+    M = fem_petsc.assemble_matrix(compat.form(p * q * ufl.dx(domain=problem.mesh)))
+    M.assemble()
+    return M
+
+
 def pressure_schur_matrix(problem) -> PETSc.Mat:
     """−1/(μ + μ_r) (p, p̃) on the mixed space (zero outside the pressure block), assembled: the Schur
     complement's preconditioning matrix (the fieldsplit takes its pressure block)."""
@@ -61,6 +75,57 @@ def solve_counts(kind: str, solves: int, factorisations: int, iterations: int | 
     return record
 
 
+def pressure_laplace_matrix(problem) -> PETSc.Mat:
+    """(∇p, ∇p̃) on the mixed space (zero outside the pressure block), with p = 0 imposed weakly (10/h) on the
+    boundaries that fix the pressure (outflow), assembled: the Cahouet–Chabard Schur preconditioner's
+    Laplacian."""
+    import dolfinx.fem.petsc as fem_petsc
+    import ufl
+
+    from .. import compat
+    from .problem import WALL_TYPES
+
+    W = problem.space.W
+    mesh = problem.mesh
+    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
+    form = ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx(domain=mesh)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=problem.facet_tags)
+    h = ufl.CellDiameter(mesh)
+    for name, bc in problem.conditions().items():
+        if bc.type not in WALL_TYPES and name in problem.facet_ids:
+            form = form + 10.0 / h * p * q * ds(problem.facet_ids[name])
+    L = fem_petsc.assemble_matrix(compat.form(form))
+    L.assemble()
+    return L
+
+
+class _CahouetChabard:
+    """S⁻¹ ≈ −(ν M⁻¹ + (ρα/δt) L⁻¹) (Cahouet & Chabard 1988): the inverse Schur complement of the
+    time-discrete Stokes operator ρα/δt u − ν Δu, as a petsc4py ``python`` PC; M⁻¹ by Jacobi, L⁻¹ by one AMG
+    cycle; ρα/δt is read from the solver at each application (it changes with δt)."""
+
+    def __init__(self, owner, mass, laplace, viscosity, amg, comm):
+        self.owner, self.viscosity = owner, viscosity
+        self.mass_ksp, self.lap_ksp = PETSc.KSP().create(comm), PETSc.KSP().create(comm)
+        for ksp, A, pc_type in ((self.mass_ksp, mass, "jacobi"), (self.lap_ksp, laplace, amg)):
+            ksp.setOperators(A)
+            ksp.setType("preonly")
+            ksp.getPC().setType(pc_type)
+            if pc_type == "hypre":
+                ksp.getPC().setHYPREType("boomeramg")
+            ksp.setUp()
+        self.z = laplace.createVecLeft()
+
+    def setUp(self, pc):
+        pass
+
+    def apply(self, pc, x, y):
+        self.mass_ksp.solve(x, y)
+        y.scale(-self.viscosity)
+        self.lap_ksp.solve(x, self.z)
+        y.axpy(-self.owner.reaction, self.z)
+
+
 class LinearSolver:
     """``set_operator(A)`` after (re)assembly, ``solve(b, x)``; counts ``factorisations`` and
     ``krylov_iterations`` (GMRES reuse only) and exposes the PETSc ``ksp``."""
@@ -74,6 +139,7 @@ class LinearSolver:
         self.krylov_iterations = 0
         self.solves, self.max_krylov_iterations = 0, 0  # counts(): summary.json "linear_solver"
         self._factorise = False  # direct: the operator changed since the last factorisation
+        self.reaction = None  # ρα/δt of a time step (iterative: the Cahouet–Chabard Schur preconditioner)
         self.A = None
         self._configured = False
         ksp = self.ksp = PETSc.KSP().create(comm)
@@ -133,7 +199,16 @@ class LinearSolver:
         if self.config.amg == "hypre":
             amg.setHYPREType("boomeramg")
         schur_ksp.setType("preonly")
-        schur_ksp.getPC().setType("jacobi")
+        if self.reaction is None:
+            schur_ksp.getPC().setType("jacobi")
+        else:
+            viscosity = float(problem.scene.fluid.mu)  # (+ μ_r with micro-rotation: not yet)
+            mass = pressure_mass_matrix(problem).createSubMatrix(pressure, pressure)
+            laplace = pressure_laplace_matrix(problem).createSubMatrix(pressure, pressure)
+            self._cc = _CahouetChabard(self, mass, laplace, viscosity, self.config.amg, comm)
+            schur_pc = schur_ksp.getPC()
+            schur_pc.setType("python")
+            schur_pc.setPythonContext(self._cc)
         self._index_sets = (primal, pressure)
 
     def _mumps_options(self):

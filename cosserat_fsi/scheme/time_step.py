@@ -223,6 +223,9 @@ class TimeStep:
                 self.A.zeroEntries()
                 fem_petsc.assemble_matrix(self.A, a_form, bcs=bcs)
             self.A.assemble()
+            if self.problem.scene.fluid is not None:  # ρα/δt: the iterative solver's Schur preconditioner
+                self.solver.reaction = (float(self.problem.scene.fluid.rho) * float(self.alpha.value)
+                                        * float(self.inv_dt.value))
             self.solver.set_operator(self.A)
 
     def _vector(self, L_form=None, a_form=None):
