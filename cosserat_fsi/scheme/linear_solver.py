@@ -198,6 +198,14 @@ class LinearSolver:
         amg.setType(self.config.amg)
         if self.config.amg == "hypre":
             amg.setHYPREType("boomeramg")
+        import os  # WIP: options of the AMG cycles from the environment, to measure
+        if os.environ.get("AMG_OPTS"):
+            opts = PETSc.Options()
+            for item in os.environ["AMG_OPTS"].split():
+                key, _, value = item.partition("=")
+                opts[key] = value
+            primal_ksp.setOptionsPrefix("primal_")
+            amg.setFromOptions()
         schur_ksp.setType("preonly")
         if self.reaction is None:
             schur_ksp.getPC().setType("jacobi")
