@@ -45,7 +45,7 @@ def pressure_mass_matrix(problem) -> PETSc.Mat:
 
     W = problem.space.W
     (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
-    M = fem_petsc.assemble_matrix(compat.form(p * q * ufl.dx(domain=problem.mesh)))
+    M = fem_petsc.assemble_matrix(compat.form(p * q * ufl.dx(domain=problem.mesh)))  # (all cells)
     M.assemble()
     return M
 
@@ -88,7 +88,11 @@ def pressure_laplace_matrix(problem) -> PETSc.Mat:
     W = problem.space.W
     mesh = problem.mesh
     (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
-    form = ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx(domain=mesh)
+    fluid = problem.fluid_cells if problem.fluid_cells is not None else 1.0
+    # in the fluid the Laplacian; the solid's pressure is no unknown of the flow: its own mass there
+    form = fluid * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx(domain=mesh)
+    if problem.fluid_cells is not None:
+        form = form + (1.0 - fluid) * p * q * ufl.dx(domain=mesh)
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=problem.facet_tags)
     h = ufl.CellDiameter(mesh)
     for name, bc in problem.conditions().items():
@@ -115,6 +119,7 @@ class _CahouetChabard:
                 ksp.getPC().setHYPREType("boomeramg")
             ksp.setUp()
         self.z = laplace.createVecLeft()
+        self.pinned = np.zeros(0, dtype=np.int32)  # positions of the Dirichlet pressure dofs (identity rows)
 
     def setUp(self, pc):
         pass
@@ -124,6 +129,8 @@ class _CahouetChabard:
         y.scale(-self.viscosity)
         self.lap_ksp.solve(x, self.z)
         y.axpy(-self.owner.reaction, self.z)
+        if len(self.pinned):  # a Dirichlet row of the pressure: its Schur complement is 1
+            y.array[self.pinned] = x.array_r[self.pinned]
 
 
 class LinearSolver:
@@ -214,6 +221,13 @@ class LinearSolver:
             mass = pressure_mass_matrix(problem).createSubMatrix(pressure, pressure)
             laplace = pressure_laplace_matrix(problem).createSubMatrix(pressure, pressure)
             self._cc = _CahouetChabard(self, mass, laplace, viscosity, self.config.amg, comm)
+            bc = problem.solid_pressure_condition(problem.space)
+            if bc is not None:
+                imap, bs = problem.space.W.dofmap.index_map, problem.space.W.dofmap.index_map_bs
+                mine = np.sort(np.asarray(problem.space.dofs("pressure")).ravel())
+                mine = mine[mine < imap.size_local * bs]
+                dofs, ghosts = bc.dof_indices()
+                self._cc.pinned = np.searchsorted(mine, np.asarray(dofs[:ghosts])).astype(np.int32)
             schur_pc = schur_ksp.getPC()
             schur_pc.setType("python")
             schur_pc.setPythonContext(self._cc)
