@@ -234,3 +234,22 @@ def versions() -> dict:
 def atan2(y, x):
     """UFL's two-argument arctangent: ``ufl.atan_2`` (ufl 2022) or ``ufl.atan2`` (newer)."""
     return (ufl.atan2 if hasattr(ufl, "atan2") else ufl.atan_2)(y, x)
+
+
+def option_used(name: str) -> bool:
+    """Whether PETSc's options database entry ``name`` (without the dash) has been read by an object.
+    petsc4py 3.18 (Debian) has no ``Options.used``: PetscOptionsUsed from the library petsc4py links."""
+    options = PETSc.Options()
+    if hasattr(options, "used"):
+        return bool(options.used(name))
+    import ctypes
+    import glob
+
+    import petsc4py
+
+    library = sorted(glob.glob(petsc4py.get_config()["PETSC_DIR"] + "/lib/libpetsc*.so*"))[0]
+    petsc = ctypes.CDLL(library)  # the library already loaded: the same options database
+    used = ctypes.c_int(0)
+    if petsc.PetscOptionsUsed(None, name.encode(), ctypes.byref(used)):  # the names are stored without dash
+        raise RuntimeError(f"PetscOptionsUsed failed for {name}")
+    return bool(used.value)

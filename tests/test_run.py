@@ -40,7 +40,11 @@ def test_run_writes_the_contract_files(run_cli, repo_root, tmp_path):
     assert {"backtrack", "assemble_vector", "solve"} <= set(s["wall_time"]["phases"])
     assert s["benchmark"]["c_D"]["reference"] == pytest.approx(5.57953523384)
     # the linear solves: one LU of the fixed mesh's constant matrix serves the 10 steps
+    memory = {key: s["linear_solver"].pop(key) for key in ("peak_rss_mib_max_rank", "peak_rss_kib_per_unknown")}
     assert s["linear_solver"] == {"type": "direct: MUMPS LU", "solves": 10, "factorisations": 1}
+    assert memory["peak_rss_mib_max_rank"] == s["memory"]["peak_rss_mib_max_rank"]
+    assert memory["peak_rss_kib_per_unknown"] == pytest.approx(1024 * s["memory"]["peak_rss_mib_sum"]
+                                                               / s["dofs"]["total"])
     # fields.xdmf: t = 0 and every 5th step, each with its own geometry and the fields
     grids = ET.parse(out / "fields.xdmf").getroot().iter("Grid")
     times = [float(g.find("Time").get("Value")) for g in grids if g.find("Time") is not None]

@@ -323,7 +323,9 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
         summary["signals"], summary["periodic"] = classify_signals(series)
         solver = getattr(sim.stepper, "solver", None) or getattr(sim.stepper, "newton", None)
         if solver is not None and hasattr(solver, "counts"):  # what the linear solves did
-            summary["linear_solver"] = solver.counts()
+            summary["linear_solver"] = {**solver.counts(), "peak_rss_mib_max_rank": memory["peak_rss_mib_max_rank"],
+                                        "peak_rss_kib_per_unknown": 1024.0 * memory["peak_rss_mib_sum"]
+                                        / max(summary["dofs"]["total"], 1)}
         if sim.report is not None:  # steady solve: Newton's iterations and residuals
             summary["newton"] = sim.report.as_dict()
         if "omega_max" in series and len(series["omega_max"]):

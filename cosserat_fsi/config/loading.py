@@ -69,6 +69,14 @@ def _models_at(parts: Sequence[str]) -> list[type[BaseModel]]:
     return _walk(parts)[0]
 
 
+def _free_mapping(parts: Sequence[str]) -> bool:
+    """Whether dotted path ``parts`` is a mapping of free keys to values (``solver.petsc_options``)."""
+    if not parts:
+        return False
+    fields = [m.model_fields[parts[-1]] for m in _models_at(parts[:-1]) if parts[-1] in m.model_fields]
+    return any(get_origin(f.annotation) is dict and not _models_at(parts) for f in fields)
+
+
 def _field_names(parts: Sequence[str]) -> list[str]:
     """Keys allowed in the section at ``parts`` (for a union: in any of its members)."""
     return list(dict.fromkeys(name for m in _models_at(parts) for name in m.model_fields))
@@ -161,6 +169,10 @@ def _apply_override(data: dict, item: str) -> None:
     for i in range(len(parts)):
         if _walk(parts[:i])[1]:  # a name in a mapping of named sections (boundaries.NAME): any name
             continue
+        if _free_mapping(parts[:i]):  # solver.petsc_options.KEY: any key, holding a value
+            if i != len(parts) - 1:
+                raise InputError(f"{'.'.join(parts[:i + 1])}: is a value, not a section (in --set {key})")
+            break
         if not _models_at(parts[:i]):
             raise InputError(f"{'.'.join(parts[:i])}: is a value, not a section (in --set {key})")
         if parts[i] not in _field_names(parts[:i]):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field
 
@@ -28,6 +28,10 @@ class Solver(_Section):
     slip everywhere), where it fixes the pressure's constant (mean zero). A scene with a do_nothing, traction
     or outflow boundary has no penalty: its pressure is determined and its mass conserved for any μ. 0: no
     penalty anywhere (a closed box then has a singular pressure).
+
+    ``petsc_options``: PETSc options without the leading dash, read after the defaults
+    (``fieldsplit_primal_pc_gamg_threshold: 0.05``, ``ksp_monitor: ""``, ``mat_mumps_icntl_14: 200``); one PETSc
+    did not use by the end of the first solve is an error (scheme/linear_solver.py).
     """
 
     penalty: float = Field(default=1e-10, ge=0)
@@ -38,6 +42,8 @@ class Solver(_Section):
     type: Literal["direct", "iterative"] = "direct"
     amg: Literal["gamg", "hypre"] = "gamg"  # the velocity block's multigrid (iterative); hypre: Debian PETSc only
     max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
+    petsc_options: dict[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=200)],
+                        str | int | float | bool] = Field(default_factory=dict)
 
     def reuses_factorization(self, moving_mesh: bool, nodal_convection: bool) -> bool:
         """Whether the kept LU preconditions GMRES (``reuse_factorization``, or its default for the scheme;

@@ -8,62 +8,32 @@ factorisation and the matrix is refactorised only when GMRES does not converge w
 (corrector passes) and reuses the factorisation.
 
 ``solver.type: iterative``: FGMRES (relative tolerance ``solver.krylov_rtol`` on the unpreconditioned
-residual, at most ``solver.max_iterations``) preconditioned by a PETSc fieldsplit Schur complement
-factorisation (full) of the saddle point [[K, Bᵀ], [B, −ζM]]: the velocity (and micro-rotation) block K by one
-algebraic multigrid cycle (``solver.amg``: GAMG, in both PETSc builds, or hypre BoomerAMG, Debian's only), the
-Schur complement by the pressure mass matrix scaled by −1/(μ + μ_r) (spectrally equivalent to −B K⁻¹ Bᵀ for
-Stokes-like K), with Jacobi. It needs no factorisation: its memory grows linearly with the dofs.
+residual, at most ``solver.max_iterations``) preconditioned by the fieldsplit Schur complement of
+block_preconditioner.py (Cahouet–Chabard for a time step, the scaled pressure mass for a steady solve).
+
+``solver.petsc_options``: PETSc options (without the leading dash) read after the defaults by every PETSc
+object of the solver, under a prefix of its own: ``ksp_*``/``pc_*`` the outer solver,
+``fieldsplit_primal_*`` the velocity (+ micro-rotation) block, ``fieldsplit_pressure_*`` the Schur
+complement, ``mat_mumps_*`` the direct factorisation. An option that PETSc does not use by the end of the
+first solve is an input error.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import itertools
+
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..errors import DivergenceError
+from .. import compat
+from ..errors import DivergenceError, InputError
+from . import block_preconditioner
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
-
-
-def _index_set(space, names, comm) -> PETSc.IS:
-    """The global (PETSc) indices of the owned dofs of the sub-spaces ``names`` of the mixed space."""
-    imap = space.W.dofmap.index_map
-    bs = space.W.dofmap.index_map_bs
-    owned = imap.size_local * bs
-    local = np.concatenate([np.asarray(space.dofs(name)).ravel() for name in names])
-    local = np.sort(local[local < owned])
-    return PETSc.IS().createGeneral((local + imap.local_range[0] * bs).astype(PETSc.IntType), comm=comm)
-
-
-def pressure_mass_matrix(problem) -> PETSc.Mat:
-    """(p, p̃) on the mixed space (zero outside the pressure block), assembled."""
-    import dolfinx.fem.petsc as fem_petsc
-    import ufl
-
-    from .. import compat
-
-    W = problem.space.W
-    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
-    M = fem_petsc.assemble_matrix(compat.form(p * q * ufl.dx(domain=problem.mesh)))  # (all cells)
-    M.assemble()
-    return M
-
-
-def pressure_schur_matrix(problem) -> PETSc.Mat:
-    """−1/(μ + μ_r) (p, p̃) on the mixed space (zero outside the pressure block), assembled: the Schur
-    complement's preconditioning matrix (the fieldsplit takes its pressure block)."""
-    import dolfinx.fem.petsc as fem_petsc
-    import ufl
-
-    from .. import compat
-
-    W = problem.space.W
-    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
-    viscosity = problem.mu + problem.mu_r if problem.mu_r is not None else problem.mu
-    M = fem_petsc.assemble_matrix(compat.form(-p * q / viscosity * ufl.dx(domain=problem.mesh)))
-    M.assemble()
-    return M
+GAMG_THRESHOLD = 0.02
+"""The velocity block's GAMG graph threshold: with PETSc's default (−1, no dropping) the iterations grow
+with the mesh (2D-1: 25 / 59.5 / 146.5 per solve on L1/L2/L3), with 0.02 they stay flat (18.5 / 21 / 23.5)."""
+_PREFIXES = itertools.count()
 
 
 def solve_counts(kind: str, solves: int, factorisations: int, iterations: int | None, largest: int) -> dict:
@@ -73,64 +43,6 @@ def solve_counts(kind: str, solves: int, factorisations: int, iterations: int | 
         record["krylov_iterations"] = {"total": int(iterations), "mean": iterations / max(solves, 1),
                                        "max": int(largest)}
     return record
-
-
-def pressure_laplace_matrix(problem) -> PETSc.Mat:
-    """(∇p, ∇p̃) on the mixed space (zero outside the pressure block), with p = 0 imposed weakly (10/h) on the
-    boundaries that fix the pressure (outflow), assembled: the Cahouet–Chabard Schur preconditioner's
-    Laplacian."""
-    import dolfinx.fem.petsc as fem_petsc
-    import ufl
-
-    from .. import compat
-    from .problem import WALL_TYPES
-
-    W = problem.space.W
-    mesh = problem.mesh
-    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
-    fluid = problem.fluid_cells if problem.fluid_cells is not None else 1.0
-    # in the fluid the Laplacian; the solid's pressure is no unknown of the flow: its own mass there
-    form = fluid * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx(domain=mesh)
-    if problem.fluid_cells is not None:
-        form = form + (1.0 - fluid) * p * q * ufl.dx(domain=mesh)
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=problem.facet_tags)
-    h = ufl.CellDiameter(mesh)
-    for name, bc in problem.conditions().items():
-        if bc.type not in WALL_TYPES and name in problem.facet_ids:
-            form = form + 10.0 / h * p * q * ds(problem.facet_ids[name])
-    L = fem_petsc.assemble_matrix(compat.form(form))
-    L.assemble()
-    return L
-
-
-class _CahouetChabard:
-    """S⁻¹ ≈ −(ν M⁻¹ + (ρα/δt) L⁻¹) (Cahouet & Chabard 1988): the inverse Schur complement of the
-    time-discrete Stokes operator ρα/δt u − ν Δu, as a petsc4py ``python`` PC; M⁻¹ by Jacobi, L⁻¹ by one AMG
-    cycle; ρα/δt is read from the solver at each application (it changes with δt)."""
-
-    def __init__(self, owner, mass, laplace, viscosity, amg, comm):
-        self.owner, self.viscosity = owner, viscosity
-        self.mass_ksp, self.lap_ksp = PETSc.KSP().create(comm), PETSc.KSP().create(comm)
-        for ksp, A, pc_type in ((self.mass_ksp, mass, "jacobi"), (self.lap_ksp, laplace, amg)):
-            ksp.setOperators(A)
-            ksp.setType("preonly")
-            ksp.getPC().setType(pc_type)
-            if pc_type == "hypre":
-                ksp.getPC().setHYPREType("boomeramg")
-            ksp.setUp()
-        self.z = laplace.createVecLeft()
-        self.pinned = np.zeros(0, dtype=np.int32)  # positions of the Dirichlet pressure dofs (identity rows)
-
-    def setUp(self, pc):
-        pass
-
-    def apply(self, pc, x, y):
-        self.mass_ksp.solve(x, y)
-        y.scale(-self.viscosity)
-        self.lap_ksp.solve(x, self.z)
-        y.axpy(-self.owner.reaction, self.z)
-        if len(self.pinned):  # a Dirichlet row of the pressure: its Schur complement is 1
-            y.array[self.pinned] = x.array_r[self.pinned]
 
 
 class LinearSolver:
@@ -146,10 +58,13 @@ class LinearSolver:
         self.krylov_iterations = 0
         self.solves, self.max_krylov_iterations = 0, 0  # counts(): summary.json "linear_solver"
         self._factorise = False  # direct: the operator changed since the last factorisation
+        self.schur_context = None  # block_preconditioner.CahouetChabard of a time step
         self.reaction = None  # ρα/δt of a time step (iterative: the Cahouet–Chabard Schur preconditioner)
         self.A = None
-        self._configured = False
+        self._configured = self._checked = False
         ksp = self.ksp = PETSc.KSP().create(comm)
+        self.prefix = f"cosserat{next(_PREFIXES)}_"  # solver.petsc_options go under it
+        ksp.setOptionsPrefix(self.prefix)
         if self.iterative:
             if problem is None:
                 raise ValueError("solver.type: iterative needs the problem (its fields)")
@@ -177,80 +92,79 @@ class LinearSolver:
         self._factorise = True
         self.ksp.setOperators(A)
         if not self._configured:
-            if self.iterative:
-                self._fieldsplit()
-            else:
-                self._mumps_options()
+            self._insert_options()
+            try:
+                if self.iterative:
+                    block_preconditioner.configure(self, self.ksp, self.problem, self.config.amg, self.comm)
+                else:
+                    self._mumps_options()
+                    self.ksp.setFromOptions()
+            except PETSc.Error as exc:
+                raise self._rejected(exc) from None
             self._configured = True
 
-    def _fieldsplit(self):
-        """Schur-complement fieldsplit: AMG on the velocity (and micro-rotation) block, the scaled pressure
-        mass matrix with Jacobi on the Schur complement (module docstring)."""
-        problem, comm, ksp = self.problem, self.comm, self.ksp
-        names = problem.space.names
-        primal = _index_set(problem.space, [n for n in names if n != "pressure"], comm)
-        pressure = _index_set(problem.space, ["pressure"], comm)
-        self._mass = pressure_schur_matrix(problem)
-        self._schur_pre = self._mass.createSubMatrix(pressure, pressure)
-        pc = ksp.getPC()
-        pc.setType("fieldsplit")
-        pc.setFieldSplitIS(("primal", primal), ("pressure", pressure))
-        pc.setFieldSplitType(PETSc.PC.CompositeType.SCHUR)
-        pc.setFieldSplitSchurFactType(PETSc.PC.SchurFactType.FULL)
-        pc.setFieldSplitSchurPreType(PETSc.PC.SchurPreType.USER, self._schur_pre)
-        ksp.setUp()
-        primal_ksp, schur_ksp = pc.getFieldSplitSubKSP()
-        primal_ksp.setType("preonly")
-        amg = primal_ksp.getPC()
-        amg.setType(self.config.amg)
-        if self.config.amg == "hypre":
-            amg.setHYPREType("boomeramg")
-        import os  # WIP: options of the AMG cycles from the environment, to measure
-        if os.environ.get("AMG_OPTS"):
-            opts = PETSc.Options()
-            for item in os.environ["AMG_OPTS"].split():
-                key, _, value = item.partition("=")
-                opts[key] = value
-            primal_ksp.setOptionsPrefix("primal_")
-            amg.setFromOptions()
-        schur_ksp.setType("preonly")
-        if self.reaction is None:
-            schur_ksp.getPC().setType("jacobi")
-        else:
-            viscosity = float(problem.scene.fluid.mu)  # (+ μ_r with micro-rotation: not yet)
-            mass = pressure_mass_matrix(problem).createSubMatrix(pressure, pressure)
-            laplace = pressure_laplace_matrix(problem).createSubMatrix(pressure, pressure)
-            self._cc = _CahouetChabard(self, mass, laplace, viscosity, self.config.amg, comm)
-            bc = problem.solid_pressure_condition(problem.space)
-            if bc is not None:
-                imap, bs = problem.space.W.dofmap.index_map, problem.space.W.dofmap.index_map_bs
-                mine = np.sort(np.asarray(problem.space.dofs("pressure")).ravel())
-                mine = mine[mine < imap.size_local * bs]
-                dofs, ghosts = bc.dof_indices()
-                self._cc.pinned = np.searchsorted(mine, np.asarray(dofs[:ghosts])).astype(np.int32)
-            schur_pc = schur_ksp.getPC()
-            schur_pc.setType("python")
-            schur_pc.setPythonContext(self._cc)
-        self._index_sets = (primal, pressure)
+    def _insert_options(self) -> None:
+        """The defaults that live in the options database, then the user's ``solver.petsc_options`` over them,
+        under this solver's prefix."""
+        options = {}
+        if self.iterative and self.config.amg == "gamg":
+            options["fieldsplit_primal_pc_gamg_threshold"] = GAMG_THRESHOLD
+        options.update(self.config.petsc_options)
+        database = PETSc.Options()
+        for key, value in options.items():
+            database[self.prefix + key] = str(value).lower() if isinstance(value, bool) else str(value)
+
+    def _remove_options(self) -> None:
+        database = PETSc.Options()
+        for key in list(self.config.petsc_options) + ["fieldsplit_primal_pc_gamg_threshold"]:
+            if database.hasName(self.prefix + key):
+                database.delValue(self.prefix + key)
+
+    def _rejected(self, exc: PETSc.Error) -> Exception:
+        """A PETSc error while the solver reads its options or first solves: the user's options' fault
+        (InputError) if there are any, else the error itself."""
+        self._remove_options()
+        if not self.config.petsc_options:
+            return exc
+        return InputError(f"solver.petsc_options: PETSc could not apply them (PETSc error code {exc.ierr}: a "
+                          f"value of the wrong kind, or a type this PETSc does not have)")
+
+    def _check_options(self) -> None:
+        """InputError for the first of the user's options that PETSc has not used (after the first solve,
+        when every object has read the database); then the options leave the database."""
+        unused = [key for key in self.config.petsc_options if not compat.option_used(self.prefix + key)]
+        self._remove_options()
+        if unused:
+            raise InputError(f"solver.petsc_options.{unused[0]}: PETSc did not use this option (not an option of "
+                             f"the {'iterative' if self.iterative else 'direct'} solver's objects)")
 
     def _mumps_options(self):
         """MUMPS controls, set on the factor matrix (no options database, nothing left unused)."""
         pc = self.ksp.getPC()
         pc.setFactorSetUpSolverType()
         F = pc.getFactorMatrix()
+        F.setOptionsPrefix(self.prefix)  # solver.petsc_options mat_mumps_* (read at the first factorisation)
         F.setMumpsIcntl(7, MUMPS_ORDERING[self.config.mumps_ordering])  # fill-reducing ordering
         F.setMumpsIcntl(14, 100)  # workspace relaxation (%)
         F.setMumpsIcntl(24, 1)  # null-pivot detection (pure-Dirichlet pressure)
 
     def reset(self) -> None:
         """Forget the operator (after a restore): the next :meth:`set_operator` configures anew."""
-        self.A, self._configured = None, False
+        self.A, self._configured, self._checked = None, False, False
 
     def solve(self, b, x) -> None:
         """x = A⁻¹ b; with reuse, refactorise when GMRES does not converge in time."""
         ksp = self.ksp
-        ksp.solve(b, x)
+        try:
+            ksp.solve(b, x)
+        except PETSc.Error as exc:
+            if self._checked:
+                raise
+            raise self._rejected(exc) from None
         self.solves += 1
+        if not self._checked:
+            self._checked = True
+            self._check_options()
         if not (self.iterative or self.reuse):  # preonly LU: a new operator is factorised at its first solve
             self.factorisations += int(self._factorise)
             self._factorise = False
@@ -275,7 +189,8 @@ class LinearSolver:
     def counts(self) -> dict:
         """The run's linear solves (summary.json "linear_solver"): the solver, solves, factorisations and,
         for the Krylov modes, the iterations (total, mean and largest per solve)."""
-        kind = ("iterative: FGMRES, fieldsplit Schur (AMG " + self.config.amg + ")" if self.iterative
+        schur = "Cahouet-Chabard" if self.schur_context is not None else "pressure mass"
+        kind = (f"iterative: FGMRES, fieldsplit Schur ({schur}), AMG {self.config.amg}" if self.iterative
                 else "direct: MUMPS LU as GMRES preconditioner, refactorised when GMRES stalls" if self.reuse
                 else "direct: MUMPS LU")
         return solve_counts(kind, self.solves, self.factorisations,
