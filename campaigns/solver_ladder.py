@@ -1,7 +1,12 @@
 """Direct (MUMPS) against iterative (FGMRES + Schur fieldsplit + AMG) per time step, on 2D and 3D ladders
-(docs/performance.md, "Direct vs iterative").
+(docs/performance.md, "Direct vs iterative" and "Iterations under refinement").
 
-    python campaigns/solver_ladder.py [--quick] [--ranks 1 2] [--out docs/runs/solver_ladder.json]
+    python campaigns/solver_ladder.py [--quick] [--ranks 1 2] [--cases ...] [--solvers direct iterative]
+                                      [--amg auto] [--out docs/runs/solver_ladder.json]
+
+A case is inline scene sections or a shipped config with overrides (FSI3: the first 10 steps from rest, the
+fixed δt = 0.005). Per run: the linear solver's counts (solves, Krylov iterations mean and largest per
+solve), CPU and wall time per step, peak memory per rank.
 
 Each case is a fixed-mesh BDF2 scene run for 4 steps in a subprocess (serial, or under the stack's
 mpirun): step 1 includes the first factorisation (direct) or the AMG setup (iterative), step 2 the second
@@ -29,11 +34,15 @@ CASES = {  # name -> (scene sections, levels)
                    "inflow": {"u_mean": 1.0},
                    "time": {"dt": 0.01, "t_end": 0.04, "scheme": "characteristics2"}}, (1, 2, 3)),
 }
-STEPS = 4
+FSI3 = ({"config": "configs/turek_hron_fsi3.yaml", "set": ["time.tolerance=null"]}, (0, 1, 2))
+CASES["fsi3"] = FSI3
+STEPS = {"fsi3": 10}
+"""Steps per run (default 4)."""
 
 
-def one(sections: dict) -> dict:
-    """Run the scene for STEPS steps on COMM_WORLD; CPU and wall seconds per step, peak RSS (GB)."""
+def one(sections: dict, steps: int = 4) -> dict:
+    """Run the scene for ``steps`` steps on COMM_WORLD; CPU and wall seconds per step, peak RSS (GB), the
+    linear solver's counts."""
     import numpy as np
     from mpi4py import MPI
 
@@ -41,12 +50,17 @@ def one(sections: dict) -> dict:
     from cosserat_fsi.config import validate_scene
     from cosserat_fsi.simulation import Simulation
 
+    from cosserat_fsi.config import load_scene
+
     comm = MPI.COMM_WORLD
-    scene = validate_scene(sections)
+    if "config" in sections:
+        scene = load_scene(sections["config"], sections["set"])
+    else:
+        scene = validate_scene(sections)
     mesh, ct, ft, _ = load_mesh(scene, comm)
     sim = Simulation(scene, mesh, ct, ft, comm)
     cpu, wall = [], []
-    for _ in range(STEPS):
+    for _ in range(steps):
         c, w = time.process_time(), time.perf_counter()
         sim.step()
         cpu.append(time.process_time() - c)
@@ -55,7 +69,7 @@ def one(sections: dict) -> dict:
     rss = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2, op=MPI.MAX)
     return {"dofs": sim.num_dofs()["total"], "ranks": comm.size, "cpu": np.round(cpu, 3).tolist(),
             "wall": np.round(wall, 3).tolist(), "peak_rss_gb": round(rss, 3),
-            "krylov_iterations": getattr(solver, "krylov_iterations", None)}
+            "krylov_iterations": getattr(solver, "krylov_iterations", None), "counts": solver.counts()}
 
 
 def _launcher(ranks: int) -> list[str]:
@@ -73,10 +87,13 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="the two smallest levels only")
     parser.add_argument("--cases", nargs="+", default=list(CASES))
     parser.add_argument("--out", type=Path, default=Path("docs/runs/solver_ladder.json"))
+    parser.add_argument("--solvers", nargs="+", default=["direct", "iterative"])
+    parser.add_argument("--amg", default="auto", choices=["auto", "gamg", "hypre"])
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one case (JSON sections)
+    parser.add_argument("--steps", type=int, default=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        result = one(json.loads(args.one))
+        result = one(json.loads(args.one), args.steps)
         from mpi4py import MPI
 
         if MPI.COMM_WORLD.rank == 0:
@@ -84,24 +101,30 @@ def main() -> None:
         return
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     results = json.loads(args.out.read_text()) if args.out.exists() else []
-    done = {(r["case"], r["level"], r["solver"], r["ranks"]) for r in results}
+    done = {(r["case"], r["level"], r["solver"], r["ranks"], r.get("amg")) for r in results}
     for case in args.cases:
         sections, levels = CASES[case]
         for level in levels[:2] if args.quick else levels:
             for ranks in args.ranks:
-                for solver in ("direct", "iterative"):
-                    if (case, level, solver, ranks) in done:
+                for solver in args.solvers:
+                    amg = args.amg if solver == "iterative" else None
+                    if (case, level, solver, ranks, amg) in done:
                         continue
                     scene = json.loads(json.dumps(sections))
-                    scene["geometry"]["level"] = level
-                    scene["solver"] = {"type": solver}
-                    cmd = [*_launcher(ranks), sys.executable, __file__, "--one", json.dumps(scene)]
+                    if "config" in scene:
+                        scene["set"] += [f"geometry.level={level}", f"solver.type={solver}"]
+                        scene["set"] += [f"solver.amg={amg}"] if amg else []
+                    else:
+                        scene["geometry"]["level"] = level
+                        scene["solver"] = {"type": solver, **({"amg": amg} if amg else {})}
+                    cmd = [*_launcher(ranks), sys.executable, __file__, "--one", json.dumps(scene),
+                           "--steps", str(STEPS.get(case, 4))]
                     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=7200)
                     line = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
                     if proc.returncode != 0 or not line:
                         print(f"{case} L{level} {solver} np{ranks}: failed\n{proc.stderr[-2000:]}", flush=True)
                         continue
-                    result = {"case": case, "level": level, "solver": solver, **json.loads(line[0][7:])}
+                    result = {"case": case, "level": level, "solver": solver, "amg": amg, **json.loads(line[0][7:])}
                     results.append(result)
                     print(json.dumps(result), flush=True)
                     args.out.parent.mkdir(parents=True, exist_ok=True)

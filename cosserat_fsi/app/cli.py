@@ -310,7 +310,11 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # argparse: --help, --version, usage errors (already printed)
         return exc.code if isinstance(exc.code, int) else 0
     except BaseException as exc:  # noqa: BLE001 (every end is one line and an exit code)
-        return report(exc, context)
+        code = report(exc, context)
+    import gc
+
+    gc.collect()  # a failed run's objects (held by the traceback) go while PETSc is alive, not at its finalize
+    return code
 
 
 if __name__ == "__main__":

@@ -19,6 +19,8 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .. import compat
+
 
 def index_set(space, names, comm) -> PETSc.IS:
     """The global (PETSc) indices of the owned dofs of the sub-spaces ``names`` of the mixed space."""
@@ -28,6 +30,61 @@ def index_set(space, names, comm) -> PETSc.IS:
     local = np.concatenate([np.asarray(space.dofs(name)).ravel() for name in names])
     local = np.sort(local[local < owned])
     return PETSc.IS().createGeneral((local + imap.local_range[0] * bs).astype(PETSc.IntType), comm=comm)
+
+
+def primal_index_set(space, comm) -> PETSc.IS:
+    """The owned velocity (and micro-rotation) dofs of the mixed space. Without micro-rotation, where the
+    mixed numbering keeps a node's velocity components adjacent (dolfinx does), the index set carries the
+    block size d, which the velocity block's matrix inherits: its multigrid then coarsens the components of a
+    node together (a vector operator: the solid's elasticity)."""
+    iset = index_set(space, [n for n in space.names if n != "pressure"], comm)
+    V, u = space.collapsed["velocity"]
+    gdim = V.dofmap.index_map_bs
+    if "micro_rotation" in space.names:
+        return iset
+    imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
+    nodes = np.asarray(u).reshape(-1, gdim)
+    nodes = nodes[nodes[:, 0] < imap.size_local * bs]
+    rows = np.sort(nodes.ravel()).reshape(-1, gdim)  # the index set's order, cut into blocks of d
+    blocked = np.all(rows - rows[:, :1] == np.arange(gdim)) and np.array_equal(np.sort(nodes[:, 0]), rows[:, 0])
+    if comm.allreduce(bool(blocked), op=MPI.LAND):
+        iset.setBlockSize(gdim)
+        iset.compose("nearnullspace", rigid_body_modes(space, iset, comm))  # the fieldsplit hands it to GAMG
+    return iset
+
+
+def rigid_body_modes(space, iset, comm) -> PETSc.NullSpace:
+    """The velocity block's near null space: the rigid motions (d translations, d(d−1)/2 rotations) on the
+    velocity dofs of the index set ``iset`` (sorted), orthonormalised."""
+    V, u = space.collapsed["velocity"]
+    gdim = V.dofmap.index_map_bs
+    x = V.tabulate_dof_coordinates()[:, :gdim]
+    imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
+    parent = np.asarray(u).reshape(-1, gdim)
+    local = np.asarray(iset.getIndices()) - imap.local_range[0] * bs  # W-local dofs, the order of iset
+    owned = parent[:, 0] < imap.size_local * bs
+    rows = np.searchsorted(local, parent[owned])  # positions in the index set (sorted) of each node's dofs
+    xo = x[owned]
+    modes = []
+    for c in range(gdim):
+        m = np.zeros(len(local))
+        m[rows[:, c]] = 1.0
+        modes.append(m)
+    for a, b in ([(0, 1)] if gdim == 2 else [(0, 1), (1, 2), (2, 0)]):
+        m = np.zeros(len(local))
+        m[rows[:, a]], m[rows[:, b]] = -xo[:, b], xo[:, a]
+        modes.append(m)
+    vectors = []
+    for m in modes:
+        v = PETSc.Vec().createMPI((len(local), PETSc.DECIDE), comm=comm)
+        v.setArray(m)
+        vectors.append(v)
+    PETSc.Vec.normalize(vectors[0])
+    for i in range(len(vectors)):  # modified Gram-Schmidt
+        for j in range(i):
+            vectors[i].axpy(-vectors[i].dot(vectors[j]), vectors[j])
+        vectors[i].normalize()
+    return PETSc.NullSpace().create(vectors=vectors, comm=comm)
 
 
 def viscosity(problem) -> float:
@@ -40,8 +97,6 @@ def _pressure_matrix(problem, integrand) -> PETSc.Mat:
     """``integrand(p, p̃, dx)`` assembled on the mixed space (zero outside the pressure block)."""
     import dolfinx.fem.petsc as fem_petsc
     import ufl
-
-    from .. import compat
 
     W = problem.space.W
     (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
@@ -64,31 +119,102 @@ def _diameter(mesh) -> float:
     return float(np.linalg.norm(high - low))
 
 
-def pressure_laplace_matrix(problem) -> PETSc.Mat:
-    """(∇p, ∇p̃) over the fluid cells, (p, p̃) over the solid's, and 10/h (p, p̃) on the boundaries that fix
-    the pressure (all but the walls): the Cahouet–Chabard Laplacian. A closed flow (walls only) adds
-    (p, p̃)/D² (D the domain's diameter), which keeps L definite and changes only its lowest modes."""
+def _laplace_form(problem, p, q, dx, dirichlet):
+    """(∇p, ∇p̃) over the fluid cells, (p, p̃) over the solid's, and 10/h (p, p̃) on the boundaries of the
+    types ``dirichlet`` (p = 0 weakly). Without such a boundary (a closed flow) it adds (p, p̃)/D² (D the
+    domain's diameter), which keeps the Laplacian definite (a singular one breaks the multigrid's coarse
+    solve) and changes only its lowest modes."""
     import ufl
-
-    from .problem import WALL_TYPES
 
     mesh = problem.mesh
     fluid = problem.fluid_cells if problem.fluid_cells is not None else 1.0
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=problem.facet_tags)
-    open_ids = [problem.facet_ids[name] for name, bc in problem.conditions().items()
-                if bc.type not in WALL_TYPES and name in problem.facet_ids]
+    fixed = [problem.facet_ids[name] for name, bc in problem.conditions().items()
+             if dirichlet(bc.type) and name in problem.facet_ids]
+    form = fluid * ufl.inner(ufl.grad(p), ufl.grad(q)) * dx
+    if problem.fluid_cells is not None:
+        form = form + (1.0 - fluid) * p * q * dx
+    for tag in fixed:
+        form = form + 10.0 / ufl.CellDiameter(mesh) * p * q * ds(tag)
+    if not fixed:
+        form = form + fluid / _diameter(mesh) ** 2 * p * q * dx
+    return form
 
-    def integrand(p, q, dx):
-        form = fluid * ufl.inner(ufl.grad(p), ufl.grad(q)) * dx
-        if problem.fluid_cells is not None:
-            form = form + (1.0 - fluid) * p * q * dx
-        for tag in open_ids:
-            form = form + 10.0 / ufl.CellDiameter(mesh) * p * q * ds(tag)
-        if not open_ids:  # a closed flow: the Neumann Laplacian is singular (its AMG coarse solve breaks down)
-            form = form + fluid / _diameter(mesh) ** 2 * p * q * dx
-        return form
 
-    return _pressure_matrix(problem, integrand)
+def _open(kind: str) -> bool:
+    """A boundary that fixes the pressure (do-nothing, traction, outflow): Cahouet–Chabard's p = 0."""
+    from .problem import WALL_TYPES
+
+    return kind not in WALL_TYPES
+
+
+def _inflow(kind: str) -> bool:
+    """A boundary with a prescribed velocity (the inflow, or a moving wall): PCD's p = 0."""
+    return kind == "velocity"
+
+
+def pressure_laplace_matrix(problem, dirichlet=_open) -> PETSc.Mat:
+    """The Schur approximations' pressure Laplacian A_p (:func:`_laplace_form`)."""
+    return _pressure_matrix(problem, lambda p, q, dx: _laplace_form(problem, p, q, dx, dirichlet))
+
+
+def convection_form(problem, velocity):
+    """K_p = ρ (w·∇p, p̃): the pressure convection by ``velocity`` (the Newton iterate's), compiled."""
+    import ufl
+
+    W = problem.space.W
+    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
+    return compat.form(problem.rho * ufl.dot(velocity, ufl.grad(p)) * q * ufl.dx(domain=problem.mesh))
+
+
+class PressureConvectionDiffusion:
+    """S⁻¹ ≈ −M_p⁻¹ (ν I + K_p A_p⁻¹) (the pressure convection–diffusion approximation in the form of
+    Olshanskii & Vassilevski 2007: the Stokes term ν M_p⁻¹ kept apart) for the Oseen operator of a steady
+    Newton step, as a petsc4py ``python`` PC; A_p with p = 0 on the inflow, by one AMG cycle; M_p⁻¹ by Jacobi;
+    K_p reassembled with each Newton iterate (:meth:`update`). With ρα/δt M_p in K_p it is Cahouet–Chabard."""
+
+    def __init__(self, mass, laplace, kp_form, pressure, nu, amg, comm):
+        self.kp_form, self.pressure, self.nu = kp_form, pressure, nu
+        self.mass_ksp, self.lap_ksp = _inner_solver(mass, "jacobi", comm), _inner_solver(laplace, amg, comm)
+        self.full = self.Kp = None
+        self.t, self.s = mass.createVecLeft(), mass.createVecLeft()
+
+    def update(self):
+        """K_p of the current iterate."""
+        import dolfinx.fem.petsc as fem_petsc
+
+        if self.full is None:
+            self.full = fem_petsc.assemble_matrix(self.kp_form)
+        else:
+            self.full.zeroEntries()
+            fem_petsc.assemble_matrix(self.full, self.kp_form)
+        self.full.assemble()
+        self.Kp = self.full.createSubMatrix(self.pressure, self.pressure, submat=self.Kp)
+
+    def setUp(self, pc):
+        pass
+
+    def apply(self, pc, x, y):
+        self.lap_ksp.solve(x, self.t)
+        self.Kp.mult(self.t, self.s)
+        self.s.axpy(self.nu, x)
+        self.mass_ksp.solve(self.s, y)
+        y.scale(-1.0)
+
+    def view(self, pc, viewer):
+        viewer.printfASCII(f"pressure convection-diffusion: -M_p^-1 (nu I + K_p A_p^-1), nu = {self.nu:g}\n")
+
+
+def _inner_solver(A, pc_type, comm) -> PETSc.KSP:
+    """One application of ``pc_type`` to ``A`` (preonly)."""
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOperators(A)
+    ksp.setType("preonly")
+    ksp.getPC().setType(pc_type)
+    if pc_type == "hypre":
+        ksp.getPC().setHYPREType("boomeramg")
+    ksp.setUp()
+    return ksp
 
 
 class CahouetChabard:
@@ -97,14 +223,7 @@ class CahouetChabard:
 
     def __init__(self, owner, mass, laplace, nu, amg, comm, pinned):
         self.owner, self.nu, self.pinned = owner, nu, pinned
-        self.mass_ksp, self.lap_ksp = PETSc.KSP().create(comm), PETSc.KSP().create(comm)
-        for ksp, A, pc_type in ((self.mass_ksp, mass, "jacobi"), (self.lap_ksp, laplace, amg)):
-            ksp.setOperators(A)
-            ksp.setType("preonly")
-            ksp.getPC().setType(pc_type)
-            if pc_type == "hypre":
-                ksp.getPC().setHYPREType("boomeramg")
-            ksp.setUp()
+        self.mass_ksp, self.lap_ksp = _inner_solver(mass, "jacobi", comm), _inner_solver(laplace, amg, comm)
         self.z = laplace.createVecLeft()
 
     def setUp(self, pc):
@@ -139,8 +258,7 @@ def configure(owner, ksp, problem, amg: str, comm) -> None:
     """Set ``ksp`` (operators set, options prefix set) up as the fieldsplit Schur preconditioned FGMRES;
     ``owner.reaction`` (ρα/δt, or None for a steady solve) selects the Schur approximation. The defaults are
     set in code, then each object reads the options database (the user's ``solver.petsc_options``)."""
-    names = problem.space.names
-    primal = index_set(problem.space, [n for n in names if n != "pressure"], comm)
+    primal = primal_index_set(problem.space, comm)
     pressure = index_set(problem.space, ["pressure"], comm)
     pc = ksp.getPC()
     pc.setType("fieldsplit")
@@ -149,7 +267,7 @@ def configure(owner, ksp, problem, amg: str, comm) -> None:
     pc.setFieldSplitSchurFactType(PETSc.PC.SchurFactType.FULL)
     nu = viscosity(problem)
     mass = pressure_mass_matrix(problem).createSubMatrix(pressure, pressure)
-    if owner.reaction is None:
+    if owner.reaction is None and owner.convecting_velocity is None:
         mass.scale(-1.0 / nu)
     pc.setFieldSplitSchurPreType(PETSc.PC.SchurPreType.USER, mass)
     ksp.setFromOptions()
@@ -162,11 +280,18 @@ def configure(owner, ksp, problem, amg: str, comm) -> None:
         primal_pc.setHYPREType("boomeramg")
     primal_ksp.setFromOptions()
     schur_ksp.setType("preonly")
-    if owner.reaction is None:
+    if owner.reaction is None and owner.convecting_velocity is None:
         schur_ksp.getPC().setType("jacobi")
     else:
-        laplace = pressure_laplace_matrix(problem).createSubMatrix(pressure, pressure)
-        owner.schur_context = CahouetChabard(owner, mass, laplace, nu, amg, comm, _pinned_pressure(problem, pressure))
+        if owner.reaction is not None:
+            laplace = pressure_laplace_matrix(problem).createSubMatrix(pressure, pressure)
+            owner.schur_context = CahouetChabard(owner, mass, laplace, nu, amg, comm,
+                                                 _pinned_pressure(problem, pressure))
+        else:
+            laplace = pressure_laplace_matrix(problem, _inflow).createSubMatrix(pressure, pressure)
+            owner.schur_context = PressureConvectionDiffusion(
+                mass, laplace, convection_form(problem, owner.convecting_velocity), pressure, nu, amg, comm)
+            owner.schur_context.update()
         schur_pc = schur_ksp.getPC()
         schur_pc.setType("python")
         schur_pc.setPythonContext(owner.schur_context)

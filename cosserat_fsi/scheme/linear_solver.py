@@ -21,6 +21,7 @@ first solve is an input error.
 from __future__ import annotations
 
 import itertools
+import logging
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -34,6 +35,23 @@ GAMG_THRESHOLD = 0.02
 """The velocity block's GAMG graph threshold: with PETSc's default (−1, no dropping) the iterations grow
 with the mesh (2D-1: 25 / 59.5 / 146.5 per solve on L1/L2/L3), with 0.02 they stay flat (18.5 / 21 / 23.5)."""
 _PREFIXES = itertools.count()
+log = logging.getLogger("cosserat_fsi")
+
+
+def resolved_amg(amg: str) -> str:
+    """``solver.amg``, with ``auto`` resolved: hypre BoomerAMG where this PETSc has it, else GAMG."""
+    if amg == "gamg":
+        return amg
+    pc = PETSc.PC().create(MPI.COMM_SELF)
+    try:
+        pc.setType("hypre")
+        return "hypre"
+    except PETSc.Error:
+        if amg == "hypre":
+            raise InputError("solver.amg: this PETSc has no hypre (use gamg, or auto)") from None
+        return "gamg"
+    finally:
+        pc.destroy()
 
 
 def solve_counts(kind: str, solves: int, factorisations: int, iterations: int | None, largest: int) -> dict:
@@ -53,12 +71,14 @@ class LinearSolver:
         """``problem``: the scheme's Problem (its mixed space and viscosities); needed by ``type: iterative``."""
         self.config, self.comm = solver_config, comm
         self.iterative = getattr(solver_config, "type", "direct") == "iterative"
+        self.amg = resolved_amg(getattr(solver_config, "amg", "auto"))
         self.reuse = reuse_factorization and not self.iterative
         self.factorisations = 0
         self.krylov_iterations = 0
         self.solves, self.max_krylov_iterations = 0, 0  # counts(): summary.json "linear_solver"
         self._factorise = False  # direct: the operator changed since the last factorisation
-        self.schur_context = None  # block_preconditioner.CahouetChabard of a time step
+        self.schur_context = None  # block_preconditioner.CahouetChabard or PressureConvectionDiffusion
+        self.convecting_velocity = None  # the steady Newton iterate's w in (w·∇)u (iterative: PCD)
         self.reaction = None  # ρα/δt of a time step (iterative: the Cahouet–Chabard Schur preconditioner)
         self.A = None
         self._configured = self._checked = False
@@ -91,11 +111,15 @@ class LinearSolver:
         self.A = A
         self._factorise = True
         self.ksp.setOperators(A)
+        if self._configured and hasattr(self.schur_context, "update"):
+            self.schur_context.update()  # PCD: F_p of the new iterate
         if not self._configured:
             self._insert_options()
             try:
                 if self.iterative:
-                    block_preconditioner.configure(self, self.ksp, self.problem, self.config.amg, self.comm)
+                    block_preconditioner.configure(self, self.ksp, self.problem, self.amg, self.comm)
+                    log.info("iterative solver: FGMRES, fieldsplit Schur (%s), velocity block by %s (solver.amg: %s)",
+                             self._schur_name(), self.amg, self.config.amg)
                 else:
                     self._mumps_options()
                     self.ksp.setFromOptions()
@@ -107,7 +131,7 @@ class LinearSolver:
         """The defaults that live in the options database, then the user's ``solver.petsc_options`` over them,
         under this solver's prefix."""
         options = {}
-        if self.iterative and self.config.amg == "gamg":
+        if self.iterative and self.amg == "gamg":
             options["fieldsplit_primal_pc_gamg_threshold"] = GAMG_THRESHOLD
         options.update(self.config.petsc_options)
         database = PETSc.Options()
@@ -189,13 +213,16 @@ class LinearSolver:
     def counts(self) -> dict:
         """The run's linear solves (summary.json "linear_solver"): the solver, solves, factorisations and,
         for the Krylov modes, the iterations (total, mean and largest per solve)."""
-        schur = "Cahouet-Chabard" if self.schur_context is not None else "pressure mass"
-        kind = (f"iterative: FGMRES, fieldsplit Schur ({schur}), AMG {self.config.amg}" if self.iterative
+        kind = (f"iterative: FGMRES, fieldsplit Schur ({self._schur_name()}), AMG {self.amg}" if self.iterative
                 else "direct: MUMPS LU as GMRES preconditioner, refactorised when GMRES stalls" if self.reuse
                 else "direct: MUMPS LU")
         return solve_counts(kind, self.solves, self.factorisations,
                             None if not (self.iterative or self.reuse) else self.krylov_iterations,
                             self.max_krylov_iterations)
+
+    def _schur_name(self) -> str:
+        return {"CahouetChabard": "Cahouet-Chabard", "PressureConvectionDiffusion": "PCD"}.get(
+            type(self.schur_context).__name__, "pressure mass")
 
     def converged_reason(self) -> int:
         return self.ksp.getConvergedReason()

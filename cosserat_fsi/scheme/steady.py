@@ -81,6 +81,10 @@ class SteadyStepper:
         omega = parts[sp.index("micro_rotation")] if "micro_rotation" in sp.names else None
         return parts[sp.index("velocity")], parts[sp.index("pressure")], omega
 
+    def convecting_velocity(self):
+        """The velocity that convects, for the iterative solver's Schur approximation (None: no convection)."""
+        return None
+
     def _newton(self):
         if self.newton is None:
             with self.timers("setup_newton"):
@@ -88,6 +92,7 @@ class SteadyStepper:
                 linear = None
                 if self.scene.solver.type == "iterative" and self.ITERATIVE:
                     linear = LinearSolver(self.scene.solver, self.comm, problem=self.problem)
+                    linear.convecting_velocity = self.convecting_velocity()
                 self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
                                      compiled=self.compiled, max_iterations=tm.newton_max_iterations,
                                      rtol=tm.newton_rtol, name="newton", linear_solver=linear)
@@ -126,8 +131,9 @@ class SteadyFluid(SteadyStepper):
 
     @classmethod
     def create(cls, problem, state, boundary, motion, timers, comm):
-        log.info("steady: Newton on the steady equations (convection (u.grad)u%s), MUMPS",
-                 ", (u.grad)omega" if problem.model.micro_rotation else "")
+        log.info("steady: Newton on the steady equations (convection (u.grad)u%s), %s",
+                 ", (u.grad)omega" if problem.model.micro_rotation else "",
+                 "FGMRES" if problem.scene.solver.type == "iterative" else "MUMPS")
         return cls(problem, state, boundary, motion, timers, comm)
 
     def __init__(self, problem, state, boundary, motion, timers, comm):
@@ -142,6 +148,10 @@ class SteadyFluid(SteadyStepper):
         self.residual = problem.residual(self.solution, ufl.TestFunctions(self.space.W),
                                          acceleration=self.acceleration(u), micro_acceleration=micro)
         self.compiled = compat.form(self.residual)
+
+    def convecting_velocity(self):
+        """w of the steady (w·∇)u at the Newton iterate (the iterative solver's PCD Schur approximation)."""
+        return self.convection * self.problem.split(self.solution)[0]
 
     def acceleration(self, u):
         """The steady material acceleration (u·∇)u = grad(u) u, times the continuation parameter."""
