@@ -86,25 +86,27 @@ def run_one(out: str, config: str, sets: list[str], restart: bool = False) -> in
 
     path = Path(out) / "attempts.csv"
     rows: list = []
-    judge, error = time_control.TimeControl.judge, time_control.TimeControl.error
+    judge = time_control.TimeControl.judge
     coordinates: dict = {}
 
     def located(self, stepper):
         """E, and where the velocity's part of it lives (serial only): the share of Σ ratio² in the largest
-        1 % of the nodes, E of u alone, and the place of the largest ratio."""
-        e = error(self, stepper)
+        1 % of the nodes, E of u alone, and the place of the largest ratio (the parts computed once)."""
+        parts = self.parts(stepper)
         self.where = (float("nan"),) * 4
-        if e is None or self.comm.size > 1:
-            return e
-        parts = self.parts(stepper)[:1]
+        if parts is None:
+            return None
         weights = self.weights(parts)
+        e = self.norm(parts, weights)
+        if self.comm.size > 1:
+            return e
         r2 = ((parts[0][0] / weights[0][:, None]) ** 2).sum(axis=1)
         V = stepper.state.velocity.function_space
         if id(V) not in coordinates:
             coordinates[id(V)] = V.tabulate_dof_coordinates()
         x = coordinates[id(V)][int(np.argmax(r2))]
         top = np.sort(r2)[-max(1, len(r2) // 100):].sum() / max(r2.sum(), 1e-300)
-        self.where = (float(top), self.norm(parts, weights), float(x[0]), float(x[1]))
+        self.where = (float(top), self.norm(parts[:1], weights[:1]), float(x[0]), float(x[1]))
         return e
 
     def logged(self, state, dt, error, failure=None):

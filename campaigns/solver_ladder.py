@@ -81,6 +81,35 @@ def _launcher(ranks: int) -> list[str]:
     return [shutil.which("mpirun") or "mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)]
 
 
+def table(results: list[dict]) -> str:
+    """The iterations-under-refinement table (markdown): per case, solver and level, the unknowns, Krylov
+    iterations per solve (mean / largest) on each rank count, CPU per step after the first two (rank 0),
+    peak memory per rank and per unknown."""
+    rows = ["| case | solver | level | unknowns | iterations per solve (mean / max): 1 · 2 · 4 ranks "
+            "| CPU per step (steps 3+, 1 rank) | peak RSS per rank (1 rank) | kB per unknown |",
+            "|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(r["case"], r["solver"], r.get("amg") or "", r["level"]) for r in results if "counts" in r})
+    for case, solver, amg, level in keys:
+        key = (case, solver, amg, level)
+        runs = {r["ranks"]: r for r in results
+                if "counts" in r and (r["case"], r["solver"], r.get("amg") or "", r["level"]) == key}
+        serial = runs.get(1)
+        if serial is None:
+            continue
+        its = []
+        for n in (1, 2, 4):
+            k = runs.get(n, {}).get("counts", {}).get("krylov_iterations")
+            its.append(f"{k['mean']:.1f} / {k['max']}" if k else "–")
+        kind = serial["counts"]["type"].split(":")[0]
+        name = f"{kind}, {serial['counts']['type'].split('AMG ')[-1]}" if kind == "iterative" else "MUMPS"
+        cpu = sum(serial["cpu"][2:]) / max(len(serial["cpu"]) - 2, 1)
+        counts = " · ".join(its) if solver == "iterative" else "–"
+        per_unknown = 1e6 * serial["peak_rss_gb"] / serial["dofs"]
+        rows.append(f"| {case} | {name} | {level} | {serial['dofs']:,} | {counts} | {cpu:.3f} s "
+                    f"| {serial['peak_rss_gb']:.2f} GB | {per_unknown:.0f} |")
+    return "\n".join(rows)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
@@ -91,6 +120,7 @@ def main() -> None:
     parser.add_argument("--amg", default="auto", choices=["auto", "gamg", "hypre"])
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one case (JSON sections)
     parser.add_argument("--steps", type=int, default=4, help=argparse.SUPPRESS)
+    parser.add_argument("--table", action="store_true", help="print the markdown table of --out and stop")
     args = parser.parse_args()
     if args.one:
         result = one(json.loads(args.one), args.steps)
@@ -98,6 +128,9 @@ def main() -> None:
 
         if MPI.COMM_WORLD.rank == 0:
             print("RESULT " + json.dumps(result), flush=True)
+        return
+    if args.table:
+        print(table(json.loads(args.out.read_text())))
         return
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     results = json.loads(args.out.read_text()) if args.out.exists() else []

@@ -40,6 +40,8 @@ from petsc4py import PETSc
 class _MovingMesh:
     """Moves the mesh to reference + a P1 displacement, checks the cells, returns the mesh velocity."""
 
+    planned = None  # a motion planned by an adaptive step's check, taken by the next move (MeshMotion)
+
     def __init__(self, mesh, comm):
         self.mesh, self.comm = mesh, comm
         self.dim = d = mesh.topology.dim  # 2: triangles in the plane, 3: tetrahedra

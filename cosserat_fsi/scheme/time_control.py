@@ -137,6 +137,11 @@ class TimeControl:
         parts = self.parts(stepper)
         return None if parts is None else self.norm(parts, self.weights(parts))
 
+    @staticmethod
+    def accepts(error: float | None) -> bool:
+        """Whether an attempt with estimate ``error`` (None: no estimate yet) is accepted."""
+        return error is None or error <= 1.0
+
     def judge(self, state, dt: float, error: float | None, failure: DivergenceError | None = None) -> bool:
         """Accept (True: ``state.steps.next`` set) or reject (False: a smaller ``next``) the attempted step;
         DivergenceError when a step at ``dt_min`` is rejected."""
@@ -144,7 +149,7 @@ class TimeControl:
         if failure is None and error is None:  # no estimate yet: the first steps keep time.dt
             steps.next, self._rejected_now = dt, False
             return True
-        if failure is None and error <= 1.0:
+        if failure is None and self.accepts(error):
             if error == 0.0:
                 factor = GROWTH
             elif steps.error > 0.0:

@@ -107,7 +107,7 @@ class TimeStep:
             try:
                 self._attempt()
                 error = control.error(self)
-                if error is None or error <= 1.0:  # to be accepted: can the mesh follow it?
+                if self.control.accepts(error):  # to be accepted: can the mesh follow it?
                     self.check_motion()
             except DivergenceError as exc:
                 error, failure = np.inf, exc
