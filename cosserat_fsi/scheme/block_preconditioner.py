@@ -113,9 +113,10 @@ def pressure_mass_matrix(problem) -> PETSc.Mat:
 def _diameter(mesh) -> float:
     """The diagonal of the mesh's bounding box (all ranks)."""
     x = mesh.geometry.x
-    comm = mesh.comm
-    low = comm.allreduce(x.min(axis=0) if len(x) else np.full(3, np.inf), op=MPI.MIN)
-    high = comm.allreduce(x.max(axis=0) if len(x) else np.full(3, -np.inf), op=MPI.MAX)
+    low = x.min(axis=0) if len(x) else np.full(3, np.inf)
+    high = x.max(axis=0) if len(x) else np.full(3, -np.inf)
+    mesh.comm.Allreduce(MPI.IN_PLACE, low, op=MPI.MIN)  # elementwise (the pickled MIN compares arrays)
+    mesh.comm.Allreduce(MPI.IN_PLACE, high, op=MPI.MAX)
     return float(np.linalg.norm(high - low))
 
 
