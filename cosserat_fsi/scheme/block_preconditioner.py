@@ -6,8 +6,9 @@ algebraic multigrid cycle, the Schur complement S = −B K⁻¹ Bᵀ by an appro
   L the pressure Laplacian (p = 0 weakly on the open boundaries), ν = μ + μ_r; on the solid cells of an FSI
   scene the pressure is no unknown of the flow: L carries its mass there, and the pinned pressure dofs
   (their Dirichlet rows) are the identity;
-- a steady solve: the scaled pressure mass −M/(μ + μ_r) with Jacobi (spectrally equivalent to S for
-  Stokes-like K).
+- a steady Newton step (``convecting_velocity`` known): the pressure convection–diffusion approximation
+  −M⁻¹(ν I + K_p L⁻¹), K_p the pressure convection, L with p = 0 on the inflow;
+- otherwise: the scaled pressure mass −M/(μ + μ_r) with Jacobi (spectrally equivalent to S for Stokes-like K).
 
 Nothing is factorised: the memory grows linearly with the dofs. Every sub-solver reads PETSc's options
 database under the solver's prefix (``solver.petsc_options``), after these defaults.
@@ -244,21 +245,22 @@ class CahouetChabard:
 
 
 def _pinned_pressure(problem, pressure_is) -> np.ndarray:
-    """Positions, within the owned pressure dofs, of the solid's pinned pressure (its Dirichlet rows)."""
+    """Positions, within the owned pressure dofs (``pressure_is``), of the solid's pinned pressure (its
+    Dirichlet rows)."""
     bc = problem.solid_pressure_condition(problem.space)
     if bc is None:
         return np.zeros(0, dtype=np.int32)
     imap, bs = problem.space.W.dofmap.index_map, problem.space.W.dofmap.index_map_bs
-    mine = np.sort(np.asarray(problem.space.dofs("pressure")).ravel())
-    mine = mine[mine < imap.size_local * bs]
+    mine = np.asarray(pressure_is.getIndices()) - imap.local_range[0] * bs  # W-local, sorted
     dofs, owned = bc.dof_indices()
     return np.searchsorted(mine, np.asarray(dofs[:owned])).astype(np.int32)
 
 
 def configure(owner, ksp, problem, amg: str, comm) -> None:
     """Set ``ksp`` (operators set, options prefix set) up as the fieldsplit Schur preconditioned FGMRES;
-    ``owner.reaction`` (ρα/δt, or None for a steady solve) selects the Schur approximation. The defaults are
-    set in code, then each object reads the options database (the user's ``solver.petsc_options``)."""
+    ``owner.reaction`` (ρα/δt of a time step) or else ``owner.convecting_velocity`` (a steady Newton step)
+    selects the Schur approximation (module docstring). The defaults are set in code, then each object reads
+    the options database (the user's ``solver.petsc_options``)."""
     primal = primal_index_set(problem.space, comm)
     pressure = index_set(problem.space, ["pressure"], comm)
     pc = ksp.getPC()

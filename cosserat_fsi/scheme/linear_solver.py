@@ -9,7 +9,7 @@ factorisation and the matrix is refactorised only when GMRES does not converge w
 
 ``solver.type: iterative``: FGMRES (relative tolerance ``solver.krylov_rtol`` on the unpreconditioned
 residual, at most ``solver.max_iterations``) preconditioned by the fieldsplit Schur complement of
-block_preconditioner.py (Cahouet–Chabard for a time step, the scaled pressure mass for a steady solve).
+block_preconditioner.py (Cahouet–Chabard for a time step, PCD for a steady Newton step).
 
 ``solver.petsc_options``: PETSc options (without the leading dash) read after the defaults by every PETSc
 object of the solver, under a prefix of its own: ``ksp_*``/``pc_*`` the outer solver,
@@ -82,6 +82,7 @@ class LinearSolver:
         self.reaction = None  # ρα/δt of a time step (iterative: the Cahouet–Chabard Schur preconditioner)
         self.A = None
         self._configured = self._checked = False
+        self._inserted: list[str] = []  # the keys _insert_options put in the options database
         ksp = self.ksp = PETSc.KSP().create(comm)
         self.prefix = f"cosserat{next(_PREFIXES)}_"  # solver.petsc_options go under it
         ksp.setOptionsPrefix(self.prefix)
@@ -137,10 +138,12 @@ class LinearSolver:
         database = PETSc.Options()
         for key, value in options.items():
             database[self.prefix + key] = str(value).lower() if isinstance(value, bool) else str(value)
+        self._inserted = list(options)
 
     def _remove_options(self) -> None:
+        """The options :meth:`_insert_options` put in the database leave it."""
         database = PETSc.Options()
-        for key in list(self.config.petsc_options) + ["fieldsplit_primal_pc_gamg_threshold"]:
+        for key in self._inserted:
             if database.hasName(self.prefix + key):
                 database.delValue(self.prefix + key)
 

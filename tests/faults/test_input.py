@@ -42,6 +42,11 @@ NOT_NUMBERS = {  # --set overrides that must be refused at validation, with the 
     "krylov_iterations_huge": ("solver.max_krylov_iterations=1000000000", "solver.max_krylov_iterations: must be <="),
     "quadrature_huge": ("time.quadrature_degree=99", "time.quadrature_degree: must be <="),
     "level_huge": ("geometry.level=" + "1" * 30, "geometry.level: must be an integer 0..6"),
+    "petsc_option_capital": ("solver.petsc_options.Ksp_type=gmres", "solver.petsc_options.Ksp_type"),
+    "petsc_option_nested": ("solver.petsc_options.ksp_type.x=1", "solver.petsc_options.ksp_type: is a value"),
+    "petsc_option_list": ("solver.petsc_options.ksp_type=[1, 2]", "solver.petsc_options.ksp_type"),
+    "petsc_option_inf": ("solver.petsc_options.ksp_rtol=.inf", "solver.petsc_options.ksp_rtol"),
+    "amg_unknown": ("solver.amg=ml", "solver.amg: must be one of auto, gamg, hypre"),
 }
 
 
