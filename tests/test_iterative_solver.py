@@ -11,7 +11,7 @@ from cosserat_fsi import compat
 from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.config import load_scene, validate_scene
 from cosserat_fsi.config.loading import _apply_override
-from cosserat_fsi.errors import InputError
+from cosserat_fsi.errors import DivergenceError, InputError
 from cosserat_fsi.scheme.linear_solver import resolved_amg
 from cosserat_fsi.simulation import Simulation
 
@@ -58,6 +58,7 @@ def test_cahouet_chabard_time_step_matches_mumps_with_flat_iterations(amg):
     iterative, counts = _run(_channel(0, {"type": "iterative", "krylov_rtol": 1e-10, "amg": amg}), mesh=mesh)
     assert counts["type"] == f"iterative: FGMRES, fieldsplit Schur (Cahouet-Chabard), AMG {amg}"
     assert counts["solves"] == 2 and counts["factorisations"] == 0
+    assert 0 < counts["largest_relative_residual"] <= 1e-10  # FGMRES (right-preconditioned): the true residual
     assert _relative(comm, direct.velocity, iterative.velocity) < 1e-7
     assert _relative(comm, direct.pressure, iterative.pressure) < 1e-7
     _, finer = _run(_channel(1, {"type": "iterative", "krylov_rtol": 1e-10, "amg": amg}))
@@ -95,6 +96,14 @@ def test_petsc_options_that_do_nothing_are_input_errors(solver, message):
     errors, not a silently default solve."""
     with pytest.raises(InputError, match=message.replace(".", r"\.")):
         _run(_channel(0, solver))
+
+
+@pytest.mark.parametrize("options", [{"ksp_type": "preonly"}, {"ksp_max_it": 3, "ksp_converged_maxits": True}])
+def test_a_solve_stopped_short_by_the_options_is_a_divergence(options):
+    """Options that end the Krylov solve before it converges (no iterations at all, or a cap that PETSc counts
+    as converged) leave a true residual far above the tolerance: a DivergenceError, not a wrong answer."""
+    with pytest.raises(DivergenceError, match="the true relative residual .* exceeds 1.0e-09"):
+        _run(_channel(0, {"type": "iterative", "krylov_rtol": 1e-10, "petsc_options": options}))
 
 
 def test_mumps_options_reach_the_factorisation():

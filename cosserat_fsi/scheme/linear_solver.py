@@ -32,6 +32,7 @@ from . import block_preconditioner
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 GAMG_THRESHOLD = 0.02
+RESIDUAL_SLACK = 10.0  # true residual / Krylov rtol accepted after an iterative solve (rounding)
 """The velocity block's GAMG graph threshold: with PETSc's default (−1, no dropping) the iterations grow
 with the mesh (2D-1: 25 / 59.5 / 146.5 per solve on L1/L2/L3), with 0.02 they stay flat (18.5 / 21 / 23.5)."""
 _PREFIXES = itertools.count()
@@ -81,6 +82,7 @@ class LinearSolver:
         self.convecting_velocity = None  # the steady Newton iterate's w in (w·∇)u (iterative: PCD)
         self.reaction = None  # ρα/δt of a time step (iterative: the Cahouet–Chabard Schur preconditioner)
         self.A = None
+        self._residual, self.largest_residual = None, 0.0  # iterative: b − A x, its largest relative norm
         self._configured = self._checked = False
         self._inserted: list[str] = []  # the keys _insert_options put in the options database
         ksp = self.ksp = PETSc.KSP().create(comm)
@@ -177,7 +179,7 @@ class LinearSolver:
 
     def reset(self) -> None:
         """Forget the operator (after a restore): the next :meth:`set_operator` configures anew."""
-        self.A, self._configured, self._checked = None, False, False
+        self.A, self._configured, self._checked, self._residual = None, False, False, None
 
     def solve(self, b, x) -> None:
         """x = A⁻¹ b; with reuse, refactorise when GMRES does not converge in time."""
@@ -202,6 +204,7 @@ class LinearSolver:
             if ksp.getConvergedReason() <= 0:
                 raise DivergenceError(f"solver.type iterative: FGMRES did not converge in {ksp.getIterationNumber()} "
                                       f"iterations (reason {ksp.getConvergedReason()}); try solver.type: direct")
+            self._check_residual(b, x)
             return
         self.krylov_iterations += ksp.getIterationNumber()
         if self.factorisations == 0 or ksp.getConvergedReason() <= 0:
@@ -213,15 +216,36 @@ class LinearSolver:
                 ksp.getPC().setReusePreconditioner(True)
             self.factorisations += 1
 
+    def _check_residual(self, b, x) -> None:
+        """DivergenceError unless the true residual ‖b − A x‖ / ‖b‖ is within ``RESIDUAL_SLACK`` times the
+        Krylov tolerance in force: a solver.petsc_options override (``ksp_type: preonly``, a loose inner
+        solve) that stops early without converging must not pass as a solution."""
+        if self._residual is None:
+            self._residual = self.A.createVecLeft()
+        r = self._residual
+        self.A.mult(x, r)
+        r.aypx(-1.0, b)  # r = b - A x
+        b_norm = b.norm()
+        relative = r.norm() / b_norm if b_norm > 0 else 0.0
+        self.largest_residual = max(self.largest_residual, relative)
+        allowed = RESIDUAL_SLACK * self.ksp.getTolerances()[0]
+        if not relative <= allowed:
+            raise DivergenceError(f"solver.type iterative: the true relative residual {relative:.2e} exceeds "
+                                  f"{allowed:.1e} ({RESIDUAL_SLACK:g} x the Krylov rtol) after "
+                                  f"{self.ksp.getIterationNumber()} iterations; check solver.petsc_options")
+
     def counts(self) -> dict:
         """The run's linear solves (summary.json "linear_solver"): the solver, solves, factorisations and,
         for the Krylov modes, the iterations (total, mean and largest per solve)."""
         kind = (f"iterative: FGMRES, fieldsplit Schur ({self._schur_name()}), AMG {self.amg}" if self.iterative
                 else "direct: MUMPS LU as GMRES preconditioner, refactorised when GMRES stalls" if self.reuse
                 else "direct: MUMPS LU")
-        return solve_counts(kind, self.solves, self.factorisations,
-                            None if not (self.iterative or self.reuse) else self.krylov_iterations,
-                            self.max_krylov_iterations)
+        record = solve_counts(kind, self.solves, self.factorisations,
+                              None if not (self.iterative or self.reuse) else self.krylov_iterations,
+                              self.max_krylov_iterations)
+        if self.iterative:
+            record["largest_relative_residual"] = self.largest_residual  # ‖b − A x‖ / ‖b‖ over the solves
+        return record
 
     def _schur_name(self) -> str:
         return {"CahouetChabard": "Cahouet-Chabard", "PressureConvectionDiffusion": "PCD"}.get(
