@@ -36,8 +36,10 @@ CASES = {  # name -> (scene sections, levels)
 }
 FSI3 = ({"config": "configs/turek_hron_fsi3.yaml", "set": ["time.tolerance=null"]}, (0, 1, 2))
 CASES["fsi3"] = FSI3
-CASES["fsi3d"] = ({"config": "configs/turek_hron_3d_fsi.yaml", "set": []}, (0,))
-STEPS = {"fsi3": 10, "fsi3d": 4}
+CASES["fsi3d"] = ({"config": "configs/turek_hron_3d_fsi.yaml", "set": []}, (0, 1, 2))
+CASES["fsi3d_refactorised"] = ({"config": "configs/turek_hron_3d_fsi.yaml",  # MUMPS factorises every step
+                                "set": ["solver.reuse_factorization=false"]}, (0, 1))
+STEPS = {"fsi3": 10, "fsi3d": 4, "fsi3d_refactorised": 4}
 """Steps per run (default 4)."""
 
 

@@ -14,7 +14,9 @@ class Solver(_Section):
     ``type: iterative``: FGMRES to ``krylov_rtol`` with a Schur fieldsplit preconditioner, ``amg`` on the
     velocity block (scheme/block_preconditioner.py): ``auto`` takes hypre BoomerAMG where this PETSc has it
     (Debian's), else GAMG (the wheel's), and the run log names it; the two give the same solution to the
-    Krylov tolerance, BoomerAMG in fewer iterations on FSI (docs/performance.md).
+    Krylov tolerance, BoomerAMG in fewer iterations on FSI (docs/performance.md). ``type: auto`` (the
+    default) takes MUMPS for steady Newton and below the measured crossover, the iterative solver for the time
+    steps of 3D scenes from ``linear_solver.AUTO_ITERATIVE_FROM`` unknowns; the run log says which and why.
 
     ``reuse_factorization``: when the matrix changes every step, keep the last MUMPS factorisation as the
     preconditioner of a GMRES solve (relative tolerance ``krylov_rtol``) and refactorise only when GMRES
@@ -41,7 +43,7 @@ class Solver(_Section):
     reuse_factorization: bool | None = None
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
     max_krylov_iterations: int = Field(default=12, ge=1, le=10_000)
-    type: Literal["direct", "iterative"] = "direct"
+    type: Literal["auto", "direct", "iterative"] = "auto"
     amg: Literal["auto", "gamg", "hypre"] = "auto"  # the velocity block's multigrid (iterative; auto: hypre if any)
     max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
     petsc_options: dict[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=200)],

@@ -32,9 +32,20 @@ from . import block_preconditioner
 
 MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 GAMG_THRESHOLD = 0.02
-RESIDUAL_SLACK = 10.0  # true residual / Krylov rtol accepted after an iterative solve (rounding)
 """The velocity block's GAMG graph threshold: with PETSc's default (−1, no dropping) the iterations grow
 with the mesh (2D-1: 25 / 59.5 / 146.5 per solve on L1/L2/L3), with 0.02 they stay flat (18.5 / 21 / 23.5)."""
+RESIDUAL_SLACK, RESIDUAL_FLOOR = 10.0, 1e-8
+"""An iterative solve is accepted when its true relative residual is at most max(RESIDUAL_SLACK x the Krylov
+rtol, RESIDUAL_FLOOR): FGMRES's own estimate drifts from the true residual by rounding, 1.1e-9 against an rtol of
+1e-10 after 189 iterations on the 3D flag (level 1); an option that stops the solve early leaves 1e-1 or more."""
+AUTO_ITERATIVE_FROM = {"refactorised": 30_000, "kept": 500_000}
+"""``solver.type: auto``: the 3D unknowns from which a time step takes the iterative solver. Where MUMPS
+refactorises every step (the convection in the matrix, or a moving mesh without reuse): the measured tie of a
+factorisation step with an iterative step (the 3D flag, 31,883 unknowns: 3.05 s against 3.19 s; MUMPS's step
+grows like N^1.6, the iterative one like N^1.1). Where MUMPS keeps its factorisation (a fixed mesh, or reuse):
+its memory (6.8 GB at 250k 3D unknowns, growing like N^4/3: 24 GB near 0.5 M). In 2D MUMPS is taken at every
+size: 2-2.5x faster per step at every measured size with the same growth, and a small 2D fill
+(docs/performance.md, "Direct or iterative")."""
 _PREFIXES = itertools.count()
 log = logging.getLogger("cosserat_fsi")
 
@@ -55,6 +66,29 @@ def resolved_amg(amg: str) -> str:
         pc.destroy()
 
 
+def resolved_type(config, problem, steady: bool = False, refactorised: bool = True) -> tuple[str, str]:
+    """``solver.type`` with ``auto`` resolved for ``problem`` (its unknowns and dimension) and for whether MUMPS
+    would refactorise every step, and the run log's line saying why."""
+    if config.type != "auto":
+        return config.type, f"solver.type: {config.type}"
+    if steady:
+        return "direct", ("solver.type auto: direct (MUMPS) for steady Newton (its iterative path, PCD, does not "
+                          "converge on every mesh: 2D-1 level 0, 3D-1Z; docs/performance.md)")
+    unknowns, dim = problem.num_dofs()["total"], problem.mesh.geometry.dim
+    if dim == 2:
+        return "direct", f"solver.type auto: direct (MUMPS) ({unknowns:,} unknowns: MUMPS at every size in 2D)"
+    kind = "refactorised" if refactorised else "kept"
+    threshold = AUTO_ITERATIVE_FROM[kind]
+    what = "a factorisation every step" if refactorised else "a kept factorisation"
+    if unknowns >= threshold and problem.model.solid and resolved_amg(config.amg) == "gamg":
+        return "direct", (f"solver.type auto: direct (MUMPS) ({unknowns:,} unknowns in 3D, but the AMG is GAMG, "
+                          f"which did not converge on FSI3 level 2; solver.amg hypre needs a PETSc with hypre)")
+    if unknowns >= threshold:
+        return "iterative", (f"solver.type auto: iterative ({unknowns:,} unknowns in 3D, at least {threshold:,} "
+                             f"for {what})")
+    return "direct", f"solver.type auto: direct (MUMPS) ({unknowns:,} unknowns in 3D, below {threshold:,} for {what})"
+
+
 def solve_counts(kind: str, solves: int, factorisations: int, iterations: int | None, largest: int) -> dict:
     """summary.json's "linear_solver" record (``iterations`` None: a direct solve, no Krylov iterations)."""
     record = {"type": kind, "solves": int(solves), "factorisations": int(factorisations)}
@@ -68,10 +102,16 @@ class LinearSolver:
     """``set_operator(A)`` after (re)assembly, ``solve(b, x)``; counts ``factorisations`` and
     ``krylov_iterations`` (GMRES reuse only) and exposes the PETSc ``ksp``."""
 
-    def __init__(self, solver_config, comm=MPI.COMM_WORLD, reuse_factorization: bool = False, problem=None):
-        """``problem``: the scheme's Problem (its mixed space and viscosities); needed by ``type: iterative``."""
+    def __init__(self, solver_config, comm=MPI.COMM_WORLD, reuse_factorization: bool = False, problem=None,
+                 steady: bool = False, refactorised: bool = True):
+        """``problem``: the scheme's Problem (its mixed space and viscosities); needed by ``type: iterative``
+        and ``auto``; ``steady``: the solver of steady Newton; ``refactorised``: the matrix changes every step
+        (``auto`` weighs a factorisation per step)."""
         self.config, self.comm = solver_config, comm
-        self.iterative = getattr(solver_config, "type", "direct") == "iterative"
+        kind, why = resolved_type(solver_config, problem, steady, refactorised and not reuse_factorization)
+        if solver_config.type == "auto":
+            log.info(why)
+        self.iterative = kind == "iterative"
         self.amg = resolved_amg(getattr(solver_config, "amg", "auto"))
         self.reuse = reuse_factorization and not self.iterative
         self.factorisations = 0
@@ -218,8 +258,8 @@ class LinearSolver:
 
     def _check_residual(self, b, x) -> None:
         """DivergenceError unless the true residual ‖b − A x‖ / ‖b‖ is within ``RESIDUAL_SLACK`` times the
-        Krylov tolerance in force: a solver.petsc_options override (``ksp_type: preonly``, a loose inner
-        solve) that stops early without converging must not pass as a solution."""
+        Krylov tolerance in force (or ``RESIDUAL_FLOOR``): a solver.petsc_options override (``ksp_type:
+        preonly``, a capped iteration count) that stops early without converging must not pass as a solution."""
         if self._residual is None:
             self._residual = self.A.createVecLeft()
         r = self._residual
@@ -228,11 +268,11 @@ class LinearSolver:
         b_norm = b.norm()
         relative = r.norm() / b_norm if b_norm > 0 else 0.0
         self.largest_residual = max(self.largest_residual, relative)
-        allowed = RESIDUAL_SLACK * self.ksp.getTolerances()[0]
+        allowed = max(RESIDUAL_SLACK * self.ksp.getTolerances()[0], RESIDUAL_FLOOR)
         if not relative <= allowed:
             raise DivergenceError(f"solver.type iterative: the true relative residual {relative:.2e} exceeds "
-                                  f"{allowed:.1e} ({RESIDUAL_SLACK:g} x the Krylov rtol) after "
-                                  f"{self.ksp.getIterationNumber()} iterations; check solver.petsc_options")
+                                  f"{allowed:.1e} after {self.ksp.getIterationNumber()} iterations; check "
+                                  f"solver.petsc_options")
 
     def counts(self) -> dict:
         """The run's linear solves (summary.json "linear_solver"): the solver, solves, factorisations and,

@@ -22,7 +22,7 @@ import logging
 from .. import compat
 from ..errors import DivergenceError
 from .point_location import PointLocator
-from .linear_solver import LinearSolver
+from .linear_solver import LinearSolver, resolved_type
 from .newton import Newton, NewtonReport
 
 import dolfinx
@@ -90,8 +90,8 @@ class SteadyStepper:
             with self.timers("setup_newton"):
                 tm = self.scene.time
                 linear = None
-                if self.scene.solver.type == "iterative" and self.ITERATIVE:
-                    linear = LinearSolver(self.scene.solver, self.comm, problem=self.problem)
+                if self.ITERATIVE and resolved_type(self.scene.solver, self.problem, steady=True)[0] == "iterative":
+                    linear = LinearSolver(self.scene.solver, self.comm, problem=self.problem, steady=True)
                     linear.convecting_velocity = self.convecting_velocity()
                 self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
                                      compiled=self.compiled, max_iterations=tm.newton_max_iterations,
@@ -131,9 +131,12 @@ class SteadyFluid(SteadyStepper):
 
     @classmethod
     def create(cls, problem, state, boundary, motion, timers, comm):
+        kind, why = resolved_type(problem.scene.solver, problem, steady=True)
         log.info("steady: Newton on the steady equations (convection (u.grad)u%s), %s",
                  ", (u.grad)omega" if problem.model.micro_rotation else "",
-                 "FGMRES" if problem.scene.solver.type == "iterative" else "MUMPS")
+                 "FGMRES" if kind == "iterative" else "MUMPS")
+        if problem.scene.solver.type == "auto":
+            log.info(why)
         return cls(problem, state, boundary, motion, timers, comm)
 
     def __init__(self, problem, state, boundary, motion, timers, comm):

@@ -64,7 +64,8 @@ class TimeStep:
         scene = problem.scene
         solver = LinearSolver(scene.solver, comm, problem=problem,
                               reuse_factorization=scene.solver.reuses_factorization(motion is not None,
-                                                                                    cls.NODAL_CONVECTION))
+                                                                                    cls.NODAL_CONVECTION),
+                              refactorised=motion is not None or cls.NODAL_CONVECTION)
         return cls(problem, state, boundary, cls.histories_for(problem, motion, comm), solver, motion, timers,
                    comm)
 
