@@ -49,7 +49,9 @@ def test_run_writes_the_contract_files(run_cli, repo_root, tmp_path):
     grids = ET.parse(out / "fields.xdmf").getroot().iter("Grid")
     times = [float(g.find("Time").get("Value")) for g in grids if g.find("Time") is not None]
     np.testing.assert_allclose(times, [0.0, 0.25, 0.5], atol=1e-12)
-    assert (out / "fields.h5").stat().st_size > 0 and (out / "run.log").read_text().count("model:") == 1
+    log_text = (out / "run.log").read_text()
+    assert (out / "fields.h5").stat().st_size > 0 and log_text.count("model:") == 1
+    assert "solver.type auto: direct (MUMPS)" in log_text and "at every size in 2D" in log_text  # the choice, said
 
 
 def test_diverging_run_exits_3_and_keeps_output(run_cli, repo_root, tmp_path):
