@@ -6,8 +6,8 @@
 
 A case is inline scene sections or a shipped config with overrides (FSI3: the first 10 steps from rest, the
 fixed δt = 0.005; fsi3d: the 3D flag, 4 steps, MUMPS keeping its factorisation, fsi3d_refactorised: a
-factorisation every step; 3d_cavity: the lid-driven cube). Per run: the linear solver's counts (solves, Krylov iterations mean and largest per
-solve), CPU and wall time per step, peak memory per rank.
+factorisation every step; 3d_cavity: the lid-driven cube). Per run: the linear solver's counts (solves,
+Krylov iterations mean and largest per solve), CPU and wall time per step, peak memory per rank.
 
 Each case is a fixed-mesh BDF2 scene run for 4 steps in a subprocess (serial, or under the stack's
 mpirun): step 1 includes the first factorisation (direct) or the AMG setup (iterative), step 2 the second
