@@ -42,8 +42,8 @@ AUTO_ITERATIVE_FROM = {"refactorised": 30_000, "kept": 500_000}
 """``solver.type: auto``: the 3D unknowns from which a time step takes the iterative solver. Where MUMPS
 refactorises every step (the convection in the matrix, or a moving mesh without reuse): the measured tie of a
 factorisation step with an iterative step (the 3D flag, 31,883 unknowns: 3.05 s against 3.19 s; MUMPS's step
-grows like N^1.6, the iterative one like N^1.1). Where MUMPS keeps its factorisation (a fixed mesh, or reuse):
-its memory (6.8 GB at 250k 3D unknowns, growing like N^4/3: 24 GB near 0.5 M). In 2D MUMPS is taken at every
+grows like N^1.5, the iterative one like N^1.07). Where MUMPS keeps its factorisation (a fixed mesh, or reuse):
+its memory (6.8 GB at 250k 3D unknowns, growing like N^1.1-1.2: 24 GB near 0.5-0.7 M). In 2D MUMPS is taken at every
 size: 2-2.5x faster per step at every measured size with the same growth, and a small 2D fill
 (docs/performance.md, "Direct or iterative")."""
 _PREFIXES = itertools.count()
@@ -71,6 +71,8 @@ def resolved_type(config, problem, steady: bool = False, refactorised: bool = Tr
     would refactorise every step, and the run log's line saying why."""
     if config.type != "auto":
         return config.type, f"solver.type: {config.type}"
+    if problem is None:
+        return "direct", "solver.type auto: direct (MUMPS) (no problem to size)"
     if steady:
         return "direct", ("solver.type auto: direct (MUMPS) for steady Newton (its iterative path, PCD, does not "
                           "converge on every mesh: 2D-1 level 0, 3D-1Z; docs/performance.md)")
