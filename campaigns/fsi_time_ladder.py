@@ -6,7 +6,7 @@ its t_end is not run again. The table gives the periodic amplitude and frequency
 same over the period ending 1 s earlier (a still-growing oscillation shows as a difference between the
 two), the observed order of the amplitude against the finest run of each ladder, and s/step.
 
-    python campaigns/fsi_time_ladder.py --ladder fsi3-seed --runs /tmp/ladder --md docs/perf/issue12/ladder.md
+    python campaigns/fsi_time_ladder.py --ladder fsi3-seed --runs /tmp/ladder --md docs/perf/time_schemes/ladder.md
     python campaigns/fsi_time_ladder.py --read DIR [DIR ...]      # analyse finished runs only
     python campaigns/fsi_time_ladder.py --continue DIR --seconds 1.5 --set time.quadrature_degree=12 --out D
         # diagnosis: continue DIR's checkpoint with other options (a restart refuses them), also another δt
@@ -351,7 +351,7 @@ def main(argv=None) -> int:
     p.add_argument("--ladder", choices=sorted(LADDERS))
     p.add_argument("--averages", nargs="+", type=Path, metavar="DIR",
                    help="uy(A) averaged over the last 2 s of each finished FSI run")
-    p.add_argument("--runs", type=Path, default=ROOT / "runs" / "issue12")
+    p.add_argument("--runs", type=Path, default=ROOT / "runs" / "time_ladder")
     p.add_argument("--read", nargs="*", type=Path, default=[])
     p.add_argument("--md", type=Path)
     p.add_argument("--continue", dest="cont", type=Path)

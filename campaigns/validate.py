@@ -2,7 +2,7 @@
 
 Each case is a config of configs/ plus `--set` overrides, run as its own `cosserat-fsi run` process
 (several at once with ``--jobs``). A finished case (its summary.json matches the resolved config) is not
-run again, so an interrupted validation resumes. Tolerances are the issue's acceptance criteria.
+run again, so an interrupted validation resumes. Tolerances are each benchmark's acceptance criteria.
 
     python campaigns/validate.py [--jobs 2] [--only PATTERN] [--out docs]
 """
