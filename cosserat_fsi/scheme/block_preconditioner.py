@@ -33,39 +33,46 @@ def index_set(space, names, comm) -> PETSc.IS:
     return PETSc.IS().createGeneral((local + imap.local_range[0] * bs).astype(PETSc.IntType), comm=comm)
 
 
+def _owned_velocity_nodes(space) -> tuple[np.ndarray, np.ndarray]:
+    """The owned velocity nodes: their W-local dofs (one row of d per node) and which of the collapsed
+    velocity space's nodes they are (a mask)."""
+    V, u = space.collapsed["velocity"]
+    gdim = V.dofmap.index_map_bs
+    imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
+    nodes = np.asarray(u).reshape(-1, gdim)
+    owned = nodes[:, 0] < imap.size_local * bs
+    return nodes[owned], owned
+
+
 def primal_index_set(space, comm) -> PETSc.IS:
     """The owned velocity (and micro-rotation) dofs of the mixed space. Without micro-rotation, where the
     mixed numbering keeps a node's velocity components adjacent (dolfinx does), the index set carries the
     block size d, which the velocity block's matrix inherits: its multigrid then coarsens the components of a
     node together (a vector operator: the solid's elasticity)."""
     iset = index_set(space, [n for n in space.names if n != "pressure"], comm)
-    V, u = space.collapsed["velocity"]
-    gdim = V.dofmap.index_map_bs
     if "micro_rotation" in space.names:
         return iset
-    imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
-    nodes = np.asarray(u).reshape(-1, gdim)
-    nodes = nodes[nodes[:, 0] < imap.size_local * bs]
+    nodes, owned = _owned_velocity_nodes(space)
+    gdim = nodes.shape[1]
     rows = np.sort(nodes.ravel()).reshape(-1, gdim)  # the index set's order, cut into blocks of d
     blocked = np.all(rows - rows[:, :1] == np.arange(gdim)) and np.array_equal(np.sort(nodes[:, 0]), rows[:, 0])
     if comm.allreduce(bool(blocked), op=MPI.LAND):
         iset.setBlockSize(gdim)
-        iset.compose("nearnullspace", rigid_body_modes(space, iset, comm))  # the fieldsplit hands it to GAMG
+        modes = rigid_body_modes(space, iset, nodes, owned, comm)
+        iset.compose("nearnullspace", modes)  # the fieldsplit hands it to the AMG
     return iset
 
 
-def rigid_body_modes(space, iset, comm) -> PETSc.NullSpace:
+def rigid_body_modes(space, iset, nodes, owned, comm) -> PETSc.NullSpace:
     """The velocity block's near null space: the rigid motions (d translations, d(d−1)/2 rotations) on the
-    velocity dofs of the index set ``iset`` (sorted), orthonormalised."""
-    V, u = space.collapsed["velocity"]
-    gdim = V.dofmap.index_map_bs
-    x = V.tabulate_dof_coordinates()[:, :gdim]
+    velocity dofs of the index set ``iset`` (sorted); ``nodes``, ``owned``: :func:`_owned_velocity_nodes`.
+    Orthonormalised."""
+    V = space.collapsed["velocity"][0]
+    gdim = nodes.shape[1]
+    xo = V.tabulate_dof_coordinates()[owned, :gdim]
     imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
-    parent = np.asarray(u).reshape(-1, gdim)
     local = np.asarray(iset.getIndices()) - imap.local_range[0] * bs  # W-local dofs, the order of iset
-    owned = parent[:, 0] < imap.size_local * bs
-    rows = np.searchsorted(local, parent[owned])  # positions in the index set (sorted) of each node's dofs
-    xo = x[owned]
+    rows = np.searchsorted(local, nodes)  # positions in the index set (sorted) of each node's dofs
     modes = []
     for c in range(gdim):
         m = np.zeros(len(local))
@@ -169,15 +176,27 @@ def convection_form(problem, velocity):
     return compat.form(problem.rho * ufl.dot(velocity, ufl.grad(p)) * q * ufl.dx(domain=problem.mesh))
 
 
-class PressureConvectionDiffusion:
+class _PressureSchur:
+    """A Schur approximation from the pressure mass M_p (by Jacobi) and Laplacian A_p (by one AMG cycle), as a
+    petsc4py ``python`` PC (``apply`` in the subclasses)."""
+
+    def __init__(self, mass, laplace, nu, amg, comm):
+        self.nu = nu
+        self.mass_ksp, self.lap_ksp = _inner_solver(mass, "jacobi", comm), _inner_solver(laplace, amg, comm)
+
+    def setUp(self, pc):
+        pass
+
+
+class PressureConvectionDiffusion(_PressureSchur):
     """S⁻¹ ≈ −M_p⁻¹ (ν I + K_p A_p⁻¹) (the pressure convection–diffusion approximation in the form of
     Olshanskii & Vassilevski 2007: the Stokes term ν M_p⁻¹ kept apart) for the Oseen operator of a steady
     Newton step, as a petsc4py ``python`` PC; A_p with p = 0 on the inflow, by one AMG cycle; M_p⁻¹ by Jacobi;
     K_p reassembled with each Newton iterate (:meth:`update`). With ρα/δt M_p in K_p it is Cahouet–Chabard."""
 
     def __init__(self, mass, laplace, kp_form, pressure, nu, amg, comm):
-        self.kp_form, self.pressure, self.nu = kp_form, pressure, nu
-        self.mass_ksp, self.lap_ksp = _inner_solver(mass, "jacobi", comm), _inner_solver(laplace, amg, comm)
+        super().__init__(mass, laplace, nu, amg, comm)
+        self.kp_form, self.pressure = kp_form, pressure
         self.full = self.Kp = None
         self.t, self.s = mass.createVecLeft(), mass.createVecLeft()
 
@@ -192,9 +211,6 @@ class PressureConvectionDiffusion:
             fem_petsc.assemble_matrix(self.full, self.kp_form)
         self.full.assemble()
         self.Kp = self.full.createSubMatrix(self.pressure, self.pressure, submat=self.Kp)
-
-    def setUp(self, pc):
-        pass
 
     def apply(self, pc, x, y):
         self.lap_ksp.solve(x, self.t)
@@ -219,17 +235,14 @@ def _inner_solver(A, pc_type, comm) -> PETSc.KSP:
     return ksp
 
 
-class CahouetChabard:
+class CahouetChabard(_PressureSchur):
     """S⁻¹ ≈ −(ν M⁻¹ + (ρα/δt) L⁻¹) (Cahouet & Chabard 1988) as a petsc4py ``python`` PC: M⁻¹ by Jacobi, L⁻¹ by
     one AMG cycle; ρα/δt is read from ``owner.reaction`` at each application (it changes with δt)."""
 
     def __init__(self, owner, mass, laplace, nu, amg, comm, pinned):
-        self.owner, self.nu, self.pinned = owner, nu, pinned
-        self.mass_ksp, self.lap_ksp = _inner_solver(mass, "jacobi", comm), _inner_solver(laplace, amg, comm)
+        super().__init__(mass, laplace, nu, amg, comm)
+        self.owner, self.pinned = owner, pinned
         self.z = laplace.createVecLeft()
-
-    def setUp(self, pc):
-        pass
 
     def apply(self, pc, x, y):
         self.mass_ksp.solve(x, y)

@@ -20,6 +20,7 @@ first solve is an input error.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 
@@ -50,8 +51,10 @@ _PREFIXES = itertools.count()
 log = logging.getLogger("cosserat_fsi")
 
 
+@functools.cache
 def resolved_amg(amg: str) -> str:
-    """``solver.amg``, with ``auto`` resolved: hypre BoomerAMG where this PETSc has it, else GAMG."""
+    """``solver.amg``, with ``auto`` resolved: hypre BoomerAMG where this PETSc has it, else GAMG (the PETSc
+    build is probed once per process)."""
     if amg == "gamg":
         return amg
     pc = PETSc.PC().create(MPI.COMM_SELF)
@@ -163,8 +166,9 @@ class LinearSolver:
             try:
                 if self.iterative:
                     block_preconditioner.configure(self, self.ksp, self.problem, self.amg, self.comm)
-                    log.info("iterative solver: FGMRES, fieldsplit Schur (%s), velocity block by %s (solver.amg: %s)",
-                             self._schur_name(), self.amg, self.config.amg)
+                    self._configured = True
+                    log.info("iterative solver: FGMRES, fieldsplit Schur (%s), %s (solver.amg: %s)",
+                             self._schur_name(), self._primal_name(), self.config.amg)
                 else:
                     self._mumps_options()
                     self.ksp.setFromOptions()
@@ -279,7 +283,7 @@ class LinearSolver:
     def counts(self) -> dict:
         """The run's linear solves (summary.json "linear_solver"): the solver, solves, factorisations and,
         for the Krylov modes, the iterations (total, mean and largest per solve)."""
-        kind = (f"iterative: FGMRES, fieldsplit Schur ({self._schur_name()}), AMG {self.amg}" if self.iterative
+        kind = (f"iterative: FGMRES, fieldsplit Schur ({self._schur_name()}), {self._primal_name()}" if self.iterative
                 else "direct: MUMPS LU as GMRES preconditioner, refactorised when GMRES stalls" if self.reuse
                 else "direct: MUMPS LU")
         record = solve_counts(kind, self.solves, self.factorisations,
@@ -290,8 +294,27 @@ class LinearSolver:
         return record
 
     def _schur_name(self) -> str:
-        return {"CahouetChabard": "Cahouet-Chabard", "PressureConvectionDiffusion": "PCD"}.get(
-            type(self.schur_context).__name__, "pressure mass")
+        """The Schur preconditioner in force: the code's approximation, or the PETSc type a
+        ``solver.petsc_options`` override put in its place."""
+        names = {"CahouetChabard": "Cahouet-Chabard", "PressureConvectionDiffusion": "PCD"}
+        used = self._sub_pc_types()
+        if used is None or used[1] == "python" or (used[1] == "jacobi" and self.schur_context is None):
+            return names.get(type(self.schur_context).__name__, "pressure mass")
+        return f"PETSc {used[1]} (solver.petsc_options)"
+
+    def _primal_name(self) -> str:
+        """The velocity block's preconditioner in force: the AMG, or the PETSc type of an override."""
+        used = self._sub_pc_types()
+        if used is None or used[0] == self.amg:
+            return f"velocity block by AMG {self.amg}"
+        return f"velocity block by PETSc {used[0]} (solver.petsc_options)"
+
+    def _sub_pc_types(self) -> tuple[str, str] | None:
+        """The fieldsplit's (velocity, Schur) PC types once configured, else None."""
+        if not (self.iterative and self._configured):
+            return None
+        primal, schur = self.ksp.getPC().getFieldSplitSubKSP()
+        return primal.getPC().getType(), schur.getPC().getType()
 
     def converged_reason(self) -> int:
         return self.ksp.getConvergedReason()

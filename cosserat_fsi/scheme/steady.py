@@ -53,6 +53,7 @@ class SteadyStepper:
     failure: str | None = None
     report: NewtonReport | None = None
     ITERATIVE = False  # takes solver.type: iterative (else MUMPS whatever the scene says)
+    linear_kind = "direct"  # solver.type resolved for this scene (create): "direct" or "iterative"
     RATES = False
 
     @staticmethod
@@ -90,7 +91,7 @@ class SteadyStepper:
             with self.timers("setup_newton"):
                 tm = self.scene.time
                 linear = None
-                if self.ITERATIVE and resolved_type(self.scene.solver, self.problem, steady=True)[0] == "iterative":
+                if self.ITERATIVE and self.linear_kind == "iterative":
                     linear = LinearSolver(self.scene.solver, self.comm, problem=self.problem, steady=True)
                     linear.convecting_velocity = self.convecting_velocity()
                 self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
@@ -137,7 +138,9 @@ class SteadyFluid(SteadyStepper):
                  "FGMRES" if kind == "iterative" else "MUMPS")
         if problem.scene.solver.type == "auto":
             log.info(why)
-        return cls(problem, state, boundary, motion, timers, comm)
+        stepper = cls(problem, state, boundary, motion, timers, comm)
+        stepper.linear_kind = kind
+        return stepper
 
     def __init__(self, problem, state, boundary, motion, timers, comm):
         super().__init__(problem, state, boundary, motion, timers, comm)
