@@ -20,7 +20,8 @@ import numpy as np
 
 from cosserat_fsi.app.plots import Fields
 from cosserat_fsi.app import cases as app_cases
-from validate import C1_VALUES, ROOT, Case, _save
+from validate_cases import C1_VALUES, ROOT, Case
+from validate_plots import _save
 
 CLASSICAL = "configs/seed_fsi3.yaml"
 COSSERAT = "configs/seed_cosserat_fsi3.yaml"
