@@ -37,48 +37,44 @@ REFERENCE = {"uy_A": (0.03438, 5.3), "lift": (437.81, 4.3956)}
 # the incompressible law these ladders measured (the shipped FSI3 scene carries the benchmark's St Venant–Kirchhoff)
 MR = {"solid.law": "mooney_rivlin_incompressible", "solid.lambda_s": "null", "solid.volume_correction_time": 0.002,
       "time.tolerance": "null"}  # and the ladders' fixed steps
+FSI3_MR = ("configs/turek_hron_fsi3.yaml", MR)
 FSI3_SEED = ("configs/turek_hron_fsi3.yaml", {**MR, "geometry.level": "seed", "time.scheme": "characteristics2"})
 FSI3_L1 = ("configs/turek_hron_fsi3.yaml", {**MR, "time.scheme": "characteristics2"})
 CFD3_L1 = ("configs/turek_hron_cfd3.yaml", {"time.tolerance": "null"})  # the ladders' fixed steps
 DTS = (0.01, 0.005, 0.0025, 0.00125)
+CFD3_DTS = (0.005, 0.0025, 0.002, 0.001)
 ALE = {"time.scheme": "ale_bdf2", "time.corrector_passes": "null"}  # null: the config's passes removed (0)
 CHARS = {"time.scheme": "characteristics2", "time.corrector_passes": "null"}
+GA = {**ALE, "time.scheme": "generalized_alpha"}  # generalised-α (ρ∞ = 0.5) on the nodal values, ALE convection
+
+
+def _ladder(prefix: str, case: tuple, extra: dict, t_end: float, dts=DTS) -> list[tuple]:
+    """(case id ``<prefix>-dt<δt>``, config, base overrides, ``extra`` with δt and t_end) for each δt."""
+    return [(f"{prefix}-dt{dt}", *case, {**extra, "time.dt": dt, "time.t_end": t_end}) for dt in dts]
+
+
 LADDERS = {
-    "fsi3-seed": [(f"fsi3-seed-c2-corr1-dt{dt}", *FSI3_SEED, {"time.corrector_passes": 1, "time.dt": dt,
-                                                            "time.t_end": 7.0}) for dt in DTS],
-    "fsi3-L1": [(f"fsi3-L1-c2-corr1-dt{dt}", *FSI3_L1, {"time.corrector_passes": 1, "time.dt": dt,
-                                                        "time.t_end": 7.0}) for dt in DTS],
-    "cfd3": [(f"cfd3-L1-c2-dt{dt}", *CFD3_L1, {**CHARS, "time.dt": dt, "time.t_end": 16.0})
-             for dt in (0.005, 0.0025, 0.002, 0.001)],
+    "fsi3-seed": _ladder("fsi3-seed-c2-corr1", FSI3_SEED, {"time.corrector_passes": 1}, 7.0),
+    "fsi3-L1": _ladder("fsi3-L1-c2-corr1", FSI3_L1, {"time.corrector_passes": 1}, 7.0),
+    "cfd3": _ladder("cfd3-L1-c2", CFD3_L1, CHARS, 16.0, CFD3_DTS),
     # ale_bdf2: BDF2 of the nodal values + semi-implicit convection relative to the mesh
-    "fsi3-seed-ale": [(f"fsi3-seed-ale-dt{dt}", *FSI3_SEED, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],
-    "fsi3-L1-ale": [(f"fsi3-L1-ale-dt{dt}", *FSI3_L1, {**ALE, "time.dt": dt, "time.t_end": 8.0}) for dt in DTS],
-    "cfd3-ale-picard": [(f"cfd3-L1-ale-picard-dt{dt}", *CFD3_L1, {"time.dt": dt, "time.t_end": 10.0})
-                        for dt in (0.002,)],  # the shipped CFD3 scene (ale_bdf2 + one Picard pass)
-    # generalised-α (ρ∞ = 0.5) on the nodal values, convection relative to the mesh
-    "fsi3-seed-ga": [(f"fsi3-seed-ga-dt{dt}", *FSI3_SEED, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
-                                                          "time.t_end": 8.0}) for dt in DTS],
-    "fsi3-L1-ga": [(f"fsi3-L1-ga-dt{dt}", *FSI3_L1, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
-                                                    "time.t_end": 8.0}) for dt in DTS],
-    "cfd3-ga": [(f"cfd3-L1-ga-dt{dt}", *CFD3_L1, {**ALE, "time.scheme": "generalized_alpha", "time.dt": dt,
-                                                  "time.t_end": 16.0}) for dt in (0.005, 0.0025, 0.002, 0.001)],
-    "cfd3-ale": [(f"cfd3-L1-ale-dt{dt}", *CFD3_L1, {**ALE, "time.dt": dt, "time.t_end": 16.0})
-                 for dt in (0.005, 0.0025, 0.002, 0.001)],
+    "fsi3-seed-ale": _ladder("fsi3-seed-ale", FSI3_SEED, ALE, 8.0),
+    "fsi3-L1-ale": _ladder("fsi3-L1-ale", FSI3_L1, ALE, 8.0),
+    "cfd3-ale-picard": _ladder("cfd3-L1-ale-picard", CFD3_L1, {}, 10.0, (0.002,)),  # shipped: ale_bdf2 + 1 Picard
+    "fsi3-seed-ga": _ladder("fsi3-seed-ga", FSI3_SEED, GA, 8.0),
+    "fsi3-L1-ga": _ladder("fsi3-L1-ga", FSI3_L1, GA, 8.0),
+    "cfd3-ga": _ladder("cfd3-L1-ga", CFD3_L1, GA, 16.0, CFD3_DTS),
+    "cfd3-ale": _ladder("cfd3-L1-ale", CFD3_L1, ALE, 16.0, CFD3_DTS),
     # generalised-α with corrector passes (the mesh and the solid stress re-placed at the predicted
     # t^{n+α_f}, the solid's continuity pulled back from Ω^{n+1})
-    **{f"fsi3-{mesh}-ga-c{passes}": [(f"{mesh}-c{passes}-dt{dt}", "configs/turek_hron_fsi3.yaml", MR,
-                                      {**ALE, "geometry.level": level, "time.scheme": "generalized_alpha",
-                                       "time.corrector_passes": passes, "time.dt": dt, "time.t_end": 8.0})
-                                     for dt in DTS]
+    **{f"fsi3-{mesh}-ga-c{passes}": _ladder(f"{mesh}-c{passes}", FSI3_MR, {**GA, "geometry.level": level,
+                                                                          "time.corrector_passes": passes}, 8.0)
        for mesh, level in (("seed", "seed"), ("L1", 1)) for passes in (1, 2)},
     # the same with the volume correction undone over a fixed τ = 0.01 s (≥ every δt of the ladder)
     # instead of over max(δt, τ = 2 ms): the one-step correction's strength grows like 1/δt, which changes
     # the discrete problem with δt (docs/performance.md)
-    **{f"fsi3-{mesh}-ga-c2-tau": [(f"tau0.01-{mesh}-dt{dt}", "configs/turek_hron_fsi3.yaml", MR,
-                                   {**ALE, "geometry.level": level, "time.scheme": "generalized_alpha",
-                                    "time.corrector_passes": 2, "solid.volume_correction_time": 0.01,
-                                    "time.dt": dt, "time.t_end": 8.0})
-                                  for dt in DTS]
+    **{f"fsi3-{mesh}-ga-c2-tau": _ladder(f"tau0.01-{mesh}", FSI3_MR, {**GA, "geometry.level": level,
+                                         "time.corrector_passes": 2, "solid.volume_correction_time": 0.01}, 8.0)
        for mesh, level in (("seed", "seed"), ("L1", 1))},
 }
 
