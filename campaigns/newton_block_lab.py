@@ -1,0 +1,125 @@
+"""The linear systems of a steady Newton step, solved by variants of the iterative solver (docs/performance.md,
+"Steady Newton steps in 3D").
+
+    python campaigns/newton_block_lab.py CONFIG LEVEL VARIANTS_JSON [--at rest solution] [--block] [--set k=v ...]
+
+The scene (a steady one, e.g. configs/schaefer_turek_3d1z.yaml) at geometry level LEVEL: its Newton Jacobian
+at rest (the boundary data only: nearly Stokes) and at its solution (converged by MUMPS first: the full
+convection and the Newton reaction term (∇w)u). The right-hand side is J x for a random x with zero Dirichlet
+rows (as a Newton correction has), so that the Dirichlet rows, which every preconditioner solves exactly, do
+not make up most of ‖b‖. Each variant is ``{"name": ..., "opts": {petsc option: value}, "schur": "mass"?}``:
+the opts go to ``solver.petsc_options`` of ``solver.type: iterative`` (FGMRES to rtol 1e-8, at most 300
+iterations); ``"schur": "mass"`` drops the convection from the Schur approximation. With ``--block`` only the
+velocity block is solved, by GMRES(200) to rtol 1e-8, with ``"pc"`` (default hypre) and the opts under the
+prefix ``lab_``. Prints one line per (state, variant): iterations, seconds, outcome.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+
+def _right_hand_side(A) -> PETSc.Vec:
+    """J x, x random, zero on the Dirichlet rows (those whose diagonal dolfinx set to exactly 1)."""
+    x, b = A.createVecRight(), A.createVecLeft()
+    x.setRandom()
+    A.mult(x, b)
+    b.array[A.getDiagonal().array == 1.0] = 0.0
+    return b
+
+
+def _full(sim, A, state, variant, comm) -> tuple[int, str]:
+    """FGMRES with the code's fieldsplit Schur preconditioner and the variant's options."""
+    from cosserat_fsi.errors import DivergenceError
+    from cosserat_fsi.scheme.linear_solver import LinearSolver
+
+    stepper = sim.stepper
+    config = sim.scene.solver.model_copy(update={"type": "iterative", "krylov_rtol": 1e-8, "max_iterations": 300,
+                                                 "petsc_options": variant.get("opts", {})})
+    solver = LinearSolver(config, comm, problem=sim.problem, steady=True)
+    stepper.solution.x.array[:] = state
+    solver.convecting_velocity = None if variant.get("schur") == "mass" else stepper.convecting_velocity()
+    y = A.createVecRight()
+    try:
+        solver.set_operator(A)
+        solver.solve(_right_hand_side(A), y)
+        outcome = "converged"
+    except DivergenceError as exc:
+        outcome = str(exc).split(";")[0]
+    its = solver.ksp.getIterationNumber()
+    solver.ksp.destroy()
+    return its, outcome
+
+
+def _block(sim, A, variant, comm) -> tuple[int, str]:
+    """The velocity block alone by GMRES(200) with the variant's PC."""
+    from cosserat_fsi.scheme.block_preconditioner import primal_index_set
+
+    primal = primal_index_set(sim.problem.space, comm)
+    K = A.createSubMatrix(primal, primal)
+    options = PETSc.Options()
+    for key, value in variant.get("opts", {}).items():
+        options[f"lab_{key}"] = value
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOptionsPrefix("lab_")
+    ksp.setOperators(K)
+    ksp.setType("gmres")
+    ksp.setGMRESRestart(200)
+    ksp.setTolerances(rtol=1e-8, max_it=300)
+    ksp.getPC().setType(variant.get("pc", "hypre"))
+    ksp.setFromOptions()
+    ksp.solve(_right_hand_side(K), K.createVecRight())
+    for key in variant.get("opts", {}):
+        options.delValue(f"lab_{key}")
+    its, reason = ksp.getIterationNumber(), ksp.getConvergedReason()
+    ksp.destroy()
+    return its, "converged" if reason > 0 else f"not converged (reason {reason})"
+
+
+def main() -> None:
+    import dolfinx.fem.petsc as fem_petsc
+
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.simulation import Simulation
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config")
+    parser.add_argument("level", type=int)
+    parser.add_argument("variants", type=json.loads)
+    parser.add_argument("--at", nargs="+", default=["rest", "solution"], choices=["rest", "solution"])
+    parser.add_argument("--block", action="store_true", help="the velocity block alone")
+    parser.add_argument("--set", nargs="*", default=[])
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    scene = load_scene(args.config, [f"geometry.level={args.level}", "solver.type=direct", *args.set])
+    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
+    stepper = sim.stepper
+    newton = stepper._newton()
+    stepper.state.to_mixed(stepper.solution, stepper.space)
+    newton.apply_bcs()
+    for where in args.at:
+        if where == "solution":
+            start = time.perf_counter()
+            sim.step()
+            if comm.rank == 0:
+                print(f"MUMPS Newton: {time.perf_counter() - start:.1f} s", flush=True)
+        newton.A.zeroEntries()
+        fem_petsc.assemble_matrix(newton.A, newton.J, bcs=newton.bcs)
+        newton.A.assemble()
+        A, state = newton.A.copy(), stepper.solution.x.array.copy()
+        for variant in args.variants:
+            start = time.perf_counter()
+            its, outcome = _block(sim, A, variant, comm) if args.block else _full(sim, A, state, variant, comm)
+            if comm.rank == 0:
+                print(f"{where:8s} {variant['name']:32s} {its:4d} iterations {time.perf_counter() - start:7.1f} s  "
+                      f"{outcome}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
