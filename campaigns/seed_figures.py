@@ -21,7 +21,7 @@ import numpy as np
 from cosserat_fsi.app.plots import Fields
 from cosserat_fsi.app import cases as app_cases
 from validate_cases import C1_VALUES, ROOT, Case
-from validate_plots import _save
+from validate_plots import save_figure
 
 CLASSICAL = "configs/seed_fsi3.yaml"
 COSSERAT = "configs/seed_cosserat_fsi3.yaml"
@@ -86,7 +86,7 @@ def plot_tip(runs: Path, out: Path, component: str, fig_no: int) -> str | None:
     ax.set_ylabel(f"{component[:2]}(A) (m)")
     ax.set_title(f"seed fig. {fig_no}: {'horizontal' if component == 'ux_A' else 'vertical'} displacement of A")
     ax.legend(fontsize=7, loc="upper left")
-    return _save(fig, out, f"seed_fig{fig_no}_{component}.png")
+    return save_figure(fig, out, f"seed_fig{fig_no}_{component}.png")
 
 
 def _draw(ax, fields: Fields, i: int, values: np.ndarray, title: str, cmap="viridis", vlim=None):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from validate_cases import C1_VALUES, REFERENCE, _example
 
-def _save(fig, out: Path, name: str) -> str:
+def save_figure(fig, out: Path, name: str) -> str:
     """Save a figure as docs/figures/<name> and return its path relative to ``out``."""
     import matplotlib.pyplot as plt
 
@@ -53,7 +53,7 @@ def plot_cfd3(cases, runs: Path, out: Path) -> str | None:
     ax.set_ylabel("lift (N)")
     ax.legend(fontsize=7, loc="upper right")
     ax.set_title("CFD3: lift over the last simulated second")
-    return _save(fig, out, "cfd3_lift.png")
+    return save_figure(fig, out, "cfd3_lift.png")
 
 
 def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -> str | None:
@@ -85,7 +85,7 @@ def plot_tip(cases, runs: Path, out: Path, prefix: str, name: str, title: str) -
     ax.set_title(title)
     zoom.set_title("last 0.5 s")
     ax.legend(fontsize=7, loc="lower left")
-    return _save(fig, out, name)
+    return save_figure(fig, out, name)
 
 
 def plot_c1_sweep(runs: Path, out: Path) -> str | None:
@@ -117,7 +117,7 @@ def plot_c1_sweep(runs: Path, out: Path) -> str | None:
     ax2.set_xlabel("c1 (μ_s = 2 c1)")
     ax2.set_ylabel("amplitude of uy(A) (m)")
     ax2.set_title("seed fig. 6: amplitude against c1")
-    return _save(fig, out, "seed_fig5_6_c1_sweep.png")
+    return save_figure(fig, out, "seed_fig5_6_c1_sweep.png")
 
 
 def plot_flap(cases, runs: Path, out: Path) -> str | None:

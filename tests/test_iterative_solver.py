@@ -244,3 +244,13 @@ def test_iterations_do_not_depend_on_the_partition(flow):
     mesh = (parallel.mesh, parallel.cell_tags, parallel.facet_tags, None)
     direct, _ = _run(flow(1, {"type": "direct"}), world, mesh=mesh)
     assert _relative(world, direct.velocity, parallel.velocity) < 1e-7
+
+
+def test_a_completed_steady_iterative_run_exits_cleanly(run_cli, tmp_path):
+    """The Schur approximation is a petsc4py ``python`` PC: destroyed by PetscFinalize after the interpreter
+    had ended, it crashed a completed run at exit (SIGSEGV, exit code 59)."""
+    done = run_cli("run", "configs/micropolar_poiseuille.yaml", "--out", tmp_path / "run", "--no-progress",
+                   "--set", "solver.type=iterative", timeout=300)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "SEGV" not in done.stderr
+    assert '"status": "completed"' in (tmp_path / "run" / "summary.json").read_text()

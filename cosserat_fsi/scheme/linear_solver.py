@@ -20,9 +20,11 @@ first solve is an input error.
 
 from __future__ import annotations
 
+import atexit
 import functools
 import itertools
 import logging
+import weakref
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -49,6 +51,16 @@ size: 2-2.5x faster per step at every measured size with the same growth, and a 
 (docs/performance.md, "Direct or iterative")."""
 _PREFIXES = itertools.count()
 log = logging.getLogger("cosserat_fsi")
+_ITERATIVE: weakref.WeakSet = weakref.WeakSet()  # the live iterative solvers (their KSPs destroyed at exit)
+
+
+@atexit.register
+def _destroy_iterative_solvers() -> None:
+    """Destroy the iterative solvers' KSPs while Python still runs: their Schur approximations are petsc4py
+    ``python`` PCs, whose destruction calls back into Python; left to PetscFinalize, which runs after the
+    interpreter has ended, it crashed the process at exit (SIGSEGV, exit code 59) after a completed run."""
+    for solver in list(_ITERATIVE):
+        solver.ksp.destroy()
 
 
 @functools.cache
@@ -117,6 +129,8 @@ class LinearSolver:
         if solver_config.type == "auto":
             log.info(why)
         self.iterative = kind == "iterative"
+        if self.iterative:
+            _ITERATIVE.add(self)
         self.amg = resolved_amg(getattr(solver_config, "amg", "auto"))
         self.reuse = reuse_factorization and not self.iterative
         self.factorisations = 0
@@ -166,15 +180,15 @@ class LinearSolver:
             try:
                 if self.iterative:
                     block_preconditioner.configure(self, self.ksp, self.problem, self.amg, self.comm)
-                    self._configured = True
-                    log.info("iterative solver: FGMRES, fieldsplit Schur (%s), %s (solver.amg: %s)",
-                             self._schur_name(), self._primal_name(), self.config.amg)
                 else:
                     self._mumps_options()
                     self.ksp.setFromOptions()
             except PETSc.Error as exc:
                 raise self._rejected(exc) from None
             self._configured = True
+            if self.iterative:
+                log.info("iterative solver: FGMRES, fieldsplit Schur (%s), %s (solver.amg: %s)",
+                         self._schur_name(), self._primal_name(), self.config.amg)
 
     def _insert_options(self) -> None:
         """The defaults that live in the options database, then the user's ``solver.petsc_options`` over them,
