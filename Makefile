@@ -1,7 +1,9 @@
 # cosserat-fsi: installation, runs and tests on two dolfinx stacks.
 #
 #   make run      set up the Debian stack (.venv) and run one scene        (SCENE=, OUT=, NP=, STACK=)
-#   make test     set up both stacks, ruff check, then the test suite on each, serial and under 2 MPI ranks
+#   make test     set up both stacks, ruff check, the documentation build, then the test suite on each,
+#                 serial and under 2 MPI ranks
+#   make docs     the documentation site (Sphinx, MyST, executed tutorials) into docs/_build/html, warnings as errors
 #   make test-fast  the fast tier (-m "not slow" on 2 workers, < 2 min per stack; STACK=debian|latest), for everyday work
 #
 # Idempotent: each venv carries a stamp file named after a hash of its install recipe and of
@@ -33,7 +35,11 @@ VENV := .venv
 # pull a second numpy into the venv that shadows the one dolfinx 0.5.2 was built against (checked below).
 # Debian's python3-numba 0.56.4 works too, but drags in scipy and compiles differently from the latest stack.
 NUMBA_PIN := numba==0.68.1 llvmlite==0.50.0
-PIP_DEBIAN := pydantic>=2 tqdm pytest pytest-xdist pyvista ruff $(NUMBA_PIN)
+# The documentation tools (make docs), pinned: the build runs with warnings as errors, so a new Sphinx or MyST
+# release could fail it. myst-nb brings myst-parser (pinned too: it parses every page) and executes the
+# tutorials through ipykernel; jupytext reads the tutorials' MyST notebooks. None of them needs a newer numpy.
+PIP_DOCS := sphinx==9.0.4 furo==2025.12.19 myst-nb==1.4.0 myst-parser==5.2.0 jupytext==1.19.6 ipykernel==7.4.0
+PIP_DEBIAN := pydantic>=2 tqdm pytest pytest-xdist pyvista ruff $(NUMBA_PIN) $(PIP_DOCS)
 MPIRUN_DEBIAN := mpirun --allow-run-as-root --oversubscribe
 
 # ------------------------------------------------------------------------------------ latest stack
@@ -72,12 +78,13 @@ PYTEST_FLAGS := -q -rs --durations=15
 # Under mpirun both ranks would race on .pytest_cache.
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
-.PHONY: help setup setup-latest apt run test test-debian test-latest test-mpi test-mpi-debian \
+.PHONY: help setup setup-latest apt run docs test test-debian test-latest test-mpi test-mpi-debian \
         test-mpi-latest test-fast lint validate sweep-c1 figures extremes study info clean distclean
 
 help:
 	@echo "make run     [SCENE=configs/x.yaml] [OUT=runs/x] [NP=1] [STACK=debian|latest]"
-	@echo "make test    both stacks: ruff, serial pytest, then -m mpi under 2 ranks"
+	@echo "make test    both stacks: ruff, the docs build, serial pytest, then -m mpi under 2 ranks"
+	@echo "make docs    the documentation site into docs/_build/html (Sphinx -W: warnings are errors)"
 	@echo "make test-fast [STACK=debian|latest]   pytest -n 2 -m 'not slow' (everyday work, < 2 min)"
 	@echo "make setup | setup-latest | info | validate | sweep-c1 | figures | extremes | study | clean | distclean"
 
@@ -145,7 +152,7 @@ run: $(RUN_SETUP)
 # Every step runs even if an earlier one fails (-k); make exits non-zero if any failed.
 # pytest's exit code 5 ("no tests collected") is a failure here on purpose.
 test: setup setup-latest
-	@$(MAKE) --no-print-directory -k lint test-debian test-latest test-mpi
+	@$(MAKE) --no-print-directory -k lint docs test-debian test-latest test-mpi
 
 lint: setup
 	@echo "=== ruff check ==="
@@ -172,6 +179,15 @@ test-mpi-debian: setup
 test-mpi-latest: setup-latest
 	@echo "=== pytest -m mpi: latest stack, MPICH, 2 ranks ==="
 	$(MPIRUN_LATEST) -n 2 $(VENV_LATEST)/bin/python -m pytest $(PYTEST_MPI_FLAGS)
+
+# ------------------------------------------------------------------------------------ documentation
+# Sphinx with MyST pages. The tutorials (docs/tutorials/*.md, MyST notebooks) are executed whenever Sphinx
+# reads them (all of them in a fresh build); docs/scene_reference.md is generated from the scene schema
+# (docs/conf.py). Warnings are errors; -T prints the traceback of an error (a failing tutorial cell) here
+# rather than into a temporary file.
+docs: setup
+	@echo "=== sphinx-build: docs -> docs/_build/html ==="
+	$(VENV)/bin/sphinx-build -T -W --keep-going -b html docs docs/_build/html
 
 # ------------------------------------------------------------------------------------ studies
 validate: $(RUN_SETUP)
@@ -205,7 +221,8 @@ info: setup setup-latest
 
 # ------------------------------------------------------------------------------------ cleaning
 clean:
-	rm -rf runs/ .pytest_cache/ build/ *.egg-info
+	rm -rf runs/ .pytest_cache/ build/ *.egg-info docs/_build/ docs/jupyter_execute/
+	rm -f docs/scene_reference.md
 	rm -f meshes/*.msh meshes/*.json
 	find . -path ./.venv -prune -o -path ./.venv-latest -prune -o -path ./.git -prune -o \
 	  -name __pycache__ -type d -print0 | xargs -0 rm -rf
