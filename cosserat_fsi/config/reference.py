@@ -167,32 +167,34 @@ def _row(model, name: str, info: FieldInfo, group: str, depth: int, member: str,
                     _one_line(info.description), model.__name__, member, group, depth, model)
 
 
-def _sections(key: str, info: FieldInfo, depth: int) -> list[tuple[str, type[BaseModel], int, str, str | None]]:
-    """(group, model, depth, member, tag) of the models below field ``key``: the members of a union chosen by
-    a tag key, a section, or the sections of a mapping of named ones."""
+def _sections(key: str, info: FieldInfo) -> list[tuple[str, type[BaseModel], str, str | None]]:
+    """(group, model, member, tag) of the models below field ``key``: the members of a union chosen by a tag
+    key, a section, or the sections of a mapping of named ones."""
     tag = info.discriminator if isinstance(info.discriminator, str) else None
     out = []
     for arm in _arms(_strip(info.annotation)[0]):
         arm, _ = _strip(arm)
         if tag is not None and _is_model(arm):
             value = arm.model_fields[tag].default
-            out.append((f"{key}[{tag}={value}]", arm, depth, f"{key}: {{{tag}: {value}}}", tag))
+            out.append((f"{key}[{tag}={value}]", arm, f"{key}: {{{tag}: {value}}}", tag))
         elif _is_model(arm):
-            out.append((key, arm, depth, "", None))
+            out.append((key, arm, "", None))
         elif get_origin(arm) is dict and _is_model(_strip(get_args(arm)[1])[0]):
             out.append((f"{key}.{PLACEHOLDERS.get(key.rsplit('.', 1)[-1], 'NAME')}", _strip(get_args(arm)[1])[0],
-                        depth, "", None))
+                        "", None))
     return out
 
 
 def field_rows(model: type[BaseModel], group: str = "", depth: int = 0, member: str = "",
-                 tag: str | None = None) -> list[FieldRow]:
-    """The rows of ``model``'s fields, then those of every section below them, depth first."""
+               tag: str | None = None) -> list[FieldRow]:
+    """The rows of ``model``'s fields, then those of every section below them, depth first (``group``: the
+    model's key, ``depth``: its nesting below its top-level section, ``member``/``tag``: the union member it
+    is and the union's tag key)."""
     fields = sorted(model.model_fields.items(), key=lambda item: item[0] != tag)  # a union's tag key first
     rows = [_row(model, name, info, group, depth, member, tag) for name, info in fields]
     for row, (_, info) in zip(list(rows), fields):
         top = not group
-        for sub_group, sub_model, _, sub_member, sub_tag in _sections(row.key, info, depth):
+        for sub_group, sub_model, sub_member, sub_tag in _sections(row.key, info):
             sub_depth = 1 if top and sub_tag else 0 if top else depth + 1
             rows += field_rows(sub_model, sub_group, sub_depth, sub_member or member, sub_tag)
     return rows
@@ -287,11 +289,13 @@ def study_reference_markdown() -> str:
     """The section "Study files": the keys of a ``cosserat-fsi study`` file, with an example."""
     from cosserat_fsi.app import study
 
-    example = textwrap.dedent(study.__doc__.split("\n\n")[2]).strip("\n")
+    blocks = [b for b in (study.__doc__ or "").split("\n\n") if b.strip() and all(
+        line.startswith("    ") for line in b.strip("\n").splitlines())]  # the module docstring's example
+    example = ["A study file:", "", "```yaml", textwrap.dedent(blocks[0]).strip("\n"), "```", ""] if blocks else []
     return "\n".join(["## Study files", "",
                       "`cosserat-fsi study STUDY.yaml` runs a ladder of scenes (the product of the listed "
-                      "values) and writes a report of the error of every observable against wall time. A study "
-                      "file:", "", "```yaml", example, "```", "", _table(study_fields()), ""])
+                      "values) and writes a report of the error of every observable against wall time.", "",
+                      *example, _table(study_fields()), ""])
 
 
 def scene_reference_markdown() -> str:

@@ -200,7 +200,8 @@ class ObservableSet(_Section):
     """Profiles along segments fixed in space, ``{NAME: {from: [x, y], to: [x, y], points: N}}``, written at
     every field-output step (``output.every``; the initial state too on a time-dependent run) to
     ``line_NAME.csv``: long format, header ``t,s,x,y,u,v,p`` (``omega`` appended with micropolar terms), N rows
-    per output time, ``s`` the arc length from ``from`` (pandas: ``read_csv`` then ``groupby("t")``)."""
+    per output time, ``s`` the arc length from ``from`` (pandas: ``read_csv`` then ``groupby("t")``; ParaView's
+    CSV reader reads it as a table)."""
 
     @field_validator("points", "solid_points", "lines")
     @classmethod

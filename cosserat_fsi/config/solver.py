@@ -39,8 +39,8 @@ class Solver(_Section):
     iterative solver for the time steps of 3D scenes from ``linear_solver.AUTO_ITERATIVE_FROM`` unknowns."""
     amg: Literal["auto", "gamg", "hypre"] = "auto"  # the velocity block's multigrid (iterative; auto: hypre if any)
     """The velocity block's multigrid (iterative): ``hypre`` (BoomerAMG), ``gamg``, or ``auto``: BoomerAMG
-    where this PETSc has it (Debian's), else GAMG (the wheel's). Both give the same solution to the Krylov
-    tolerance, BoomerAMG in fewer iterations on FSI (docs/performance.md)."""
+    where this PETSc has it (Debian's), else GAMG (the wheel's; the run log names it). Both give the same
+    solution to the Krylov tolerance, BoomerAMG in fewer iterations on FSI (docs/performance.md)."""
     max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
     """Most FGMRES iterations of one solve (iterative)."""
     petsc_options: dict[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=200)],
