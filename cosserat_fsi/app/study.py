@@ -54,17 +54,32 @@ PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_moti
 
 
 class Study(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    """A study file (the module docstring shows one); the string literal under a field is its description."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, use_attribute_docstrings=True)
 
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
+    """The study's name: its runs go to ``<out>/runs/study-<name>/``, its report to ``<out>/study_<name>.md``."""
     config: str
+    """The scene file of every run, relative to the study file (or absolute)."""
     observables: list[str] = Field(min_length=1)
+    """Keys of summary.json's benchmark block whose error the report shows, e.g. ``drag.mean``,
+    ``lift.amplitude``, ``lift.frequency``."""
     base: dict[str, Any] = {}
+    """Overrides of every run, ``{dotted.key: value}`` as ``--set`` (null removes the key)."""
     ladder: dict[str, list[Any]] = Field(min_length=1)
+    """``{dotted.key: [values]}``: every combination of the listed values is a run (at most 1000 runs)."""
     variants: dict[str, dict[str, Any]] = {}
+    """Named override sets ``{NAME: {dotted.key: value}}``, each run at every point of the ladder (run ids end
+    in ``-NAME``): for options that only make sense together."""
     extra: dict[str, dict[str, Any]] = {}
+    """Single runs beside the ladder, ``{run id: {dotted.key: value}}``."""
     tolerances: list[Annotated[float, Field(gt=0, lt=1)]] = []
+    """A ladder of ``time.tolerance`` beside the ``time.dt`` one: every point of the ladder without its
+    ``time.dt`` key (× each variant) is run again at each tolerance, from a first step of the scene's
+    ``time.dt``."""
     ranks: int = Field(default=1, ge=1, le=1024)
+    """MPI ranks of each run (``mpirun -n ranks``)."""
 
 
 def load_study(path: str | Path) -> Study:

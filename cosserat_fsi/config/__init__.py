@@ -4,10 +4,11 @@
 validates it against the schema of docs/architecture.md and returns a :class:`Scene`. Every problem
 is raised as one :class:`~cosserat_fsi.errors.InputError` line ``"<dotted.key>: <problem>"``.
 
-The section docstrings are the reference of the YAML keys: physics (fluid, micropolar, solid, inflow),
-time (one model per ``scheme``), solver, sections (boundaries, observables, output), scene (the whole
-scene and its checks across sections); loading turns pydantic's errors into the one-line messages. What
-each geometry accepts lives in geometry/, one model each. No dolfinx, petsc4py or gmsh imports here.
+The models are the reference of the YAML keys, one docstring under each field: physics (fluid, micropolar,
+solid, inflow), time (one model per ``scheme``), solver, sections (boundaries, observables, output), scene
+(the whole scene and its checks across sections); loading turns pydantic's errors into the one-line
+messages; reference walks the models into the documentation's "Scene reference" page. What each geometry
+accepts lives in geometry/, one model each. No dolfinx, petsc4py or gmsh imports here.
 """
 
 from __future__ import annotations

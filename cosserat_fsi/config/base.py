@@ -41,9 +41,10 @@ MAX_COUNT = 1_000_000_000
 
 class _Section(BaseModel):
     """Base of every section: unknown keys, loose types (a string for a number) and non-finite numbers
-    (``.inf``, ``.nan``, ``1e999``) are errors: one setting for every float of every section."""
+    (``.inf``, ``.nan``, ``1e999``) are errors: one setting for every float of every section. The string
+    literal under a field is its description (the scene reference, config/reference.py)."""
 
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, use_attribute_docstrings=True)
 
 
 PositiveFloat = Annotated[float, Field(gt=0)]

@@ -22,18 +22,41 @@ class Scene(_Section):
     """A complete, validated scene (one run)."""
 
     name: str = "scene"
+    """The scene's name, in run.log and summary.json: 1 to 100 letters, digits, '_', '-', '.'; load_scene's
+    default is the scene file's stem."""
     benchmark: Benchmark | None = None
+    """Compare the run with a published benchmark's reference values (micropolar_*: with an exact solution,
+    relative L² errors); the run ends with a PASS/FAIL table. Each needs its geometry (e.g. turek_hron_fsi3:
+    turek_hron with flag solid; turek_hron_cfd3: flag rigid; turek_hron_csm1: flag)."""
     geometry: Geometry
+    """The mesh: a built-in geometry or the user's gmsh file, chosen by ``name``."""
     fluid: Fluid | None = None
+    """The Newtonian part of the fluid; required when the geometry has fluid cells, absent for geometry
+    flag."""
     micropolar: Micropolar = Field(default_factory=Micropolar)
+    """Cosserat (micropolar) coefficients of the fluid; the defaults (all zero) give a Newtonian fluid."""
     solid: Solid | None = None
+    """The elastic solid; required when the mesh has solid cells (turek_hron with flag solid, turek_hron_3d,
+    flag, box; a file with solid cell groups)."""
     inflow: Inflow | None = None
+    """Inlet velocity; required for turek_hron, schaefer_turek and their 3D forms, optional for the other
+    built-in geometries (moving lid of square and cube) and for a file scene without a boundaries section."""
     boundaries: dict[str, BoundaryCondition] | None = None
+    """Geometry file only: the condition on each facet group of the mesh, by its physical name (every group
+    but the computed ``interface`` needs one); not with an inflow section. null: the built-in conditions by
+    name (no-slip on walls, cylinder, clamp; the inflow on inlet; do-nothing elsewhere)."""
     observables: ObservableSet | None = None
+    """Geometry file only: forces, probes, solid points and line profiles to report (the built-in geometries
+    have their own)."""
     reference: dict[str, Reference] | None = None
+    """Pass/FAIL references for columns of timeseries.csv, by column name, checked at the end of the run like
+    a benchmark's (not with benchmark)."""
     time: Time
+    """Time stepping (or the steady state), chosen by ``scheme``; required."""
     solver: Solver = Field(default_factory=Solver)
+    """The linear solver of every step."""
     output: Output = Field(default_factory=Output)
+    """What the run writes, and how often."""
 
     @field_validator("name")
     @classmethod

@@ -40,9 +40,10 @@ def _scalar_or_list(value: Any, scalar: bool, what: str) -> Any:
 
 
 class MicroRotationValue(_Section):
-    """``micro_rotation: {value: EXPR}``: ω = EXPR on the boundary (Dirichlet); in 3D three components."""
+    """``micro_rotation: {value: EXPR}``: ω = EXPR on the boundary (Dirichlet)."""
 
     value: list[Expr] | Expr
+    """ω on the boundary (rad/s): EXPR in 2D, [EXPR, EXPR, EXPR] in 3D."""
 
     @field_validator("value", mode="before")
     @classmethod
@@ -55,32 +56,28 @@ class MicroRotationValue(_Section):
 
 
 class BoundaryCondition(_Section):
-    """The condition on one named facet group of a file scene (``boundaries: {NAME: {...}}``).
-
-    ``type``: ``no_slip`` (u = 0), ``velocity`` (u = ``value``), ``do_nothing`` (the natural condition of
-    the viscous form: (μ + μ_r) ∂u/∂n − p n = 0 for ``laplacian``), ``traction`` (that natural condition =
-    ``value``), ``pressure`` (the normal traction −p̂ n with p̂ = ``value``, one expression: the natural
-    condition = −p̂ n; with ``laplacian`` (μ + μ_r) ∂u/∂n − p n = −p̂ n, so p = p̂ where the flow is developed
-    (∂u/∂n = 0), the do-nothing sense: a pressure drop between an inlet and an outlet drives Poiseuille flow;
-    with ``symmetric`` the tangential stress (μ + μ_r)(∇u + ∇uᵀ)n·t is set to 0 as well, which a developed
-    profile does not satisfy), ``slip`` (u·n = 0 and no tangential traction of the viscous form, on any
-    boundary, straight, oblique or curved: weakly by Nitsche's method, the polygon's normals averaged at its
-    vertices; ω keeps its ``micro_rotation``; not with the steady solid solve, nor on a side of solid cells).
-    ``value``: [EXPR, EXPR]
-    (velocity, traction; 3 in 3D) or EXPR (pressure), each a number or a string in x, y, z, t
-    (cosserat_fsi/expressions.py), e.g. the Turek–Hron inflow with its cosine ramp. A value must be finite on
-    the boundary (exit 2 at setup, exit 3 if it turns non-finite during the run); one that uses t needs a
-    time in a steady scene (``time.steady_at``).
-    ``micro_rotation`` (with micropolar terms): ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly),
-    ``free`` (natural: λ₁ ∂ω/∂n = 0) or ``{value: EXPR}`` (ω = EXPR; in 3D [EXPR, EXPR, EXPR]). Default:
-    ``micropolar.wall_condition`` on no_slip boundaries, ``free`` on do_nothing, traction, pressure and slip
-    ones; a velocity boundary of a micropolar scene must name it (a moving wall and an inflow want different
-    ones). run.log lists the condition each boundary got.
-    """
+    """The condition on one named facet group of a file scene (``boundaries: {NAME: {...}}``). run.log lists
+    the condition each boundary got."""
 
     type: Literal["no_slip", "velocity", "do_nothing", "traction", "pressure", "slip"]
+    """``no_slip``: u = 0. ``velocity``: u = ``value``. ``do_nothing``: the natural condition of the viscous
+    form ((μ + μ_r) ∂u/∂n − p n = 0 for ``laplacian``). ``traction``: that natural condition = ``value``.
+    ``pressure``: the normal traction −p̂ n with p̂ = ``value``; with ``laplacian`` p = p̂ where the flow is
+    developed (∂u/∂n = 0), so a pressure drop between an inlet and an outlet drives Poiseuille flow (with
+    ``symmetric`` the tangential stress is set to 0 as well, which a developed profile does not satisfy).
+    ``slip``: u·n = 0 and no tangential traction, on any boundary, straight, oblique or curved (weakly by
+    Nitsche's method, the polygon's normals averaged at its vertices; not with the steady solid solve, nor on
+    a side of solid cells)."""
     value: list[Expr] | Expr | None = Field(default=None, validate_default=True)
+    """``velocity`` and ``traction``: [EXPR, EXPR] (3 in 3D; m/s, Pa); ``pressure``: EXPR (Pa). EXPR: a
+    number or a string in x, y, z, t (cosserat_fsi/expressions.py), finite on the boundary (exit 2 at setup,
+    exit 3 if it turns non-finite during the run); one that uses t needs ``time.steady_at`` in a steady
+    scene."""
     micro_rotation: MicroRotationValue | Literal["zero", "half_curl", "free"] | None = None
+    """With micropolar terms: ``zero`` (ω = 0), ``half_curl`` (ω = ½ curl u, weakly), ``free`` (natural: λ₁
+    ∂ω/∂n = 0) or ``{value: EXPR}``. null: ``micropolar.wall_condition`` on no_slip boundaries, ``free`` on
+    do_nothing, traction, pressure and slip ones; a velocity boundary of a micropolar scene must name it (a
+    moving wall and an inflow want different ones)."""
 
     @field_validator("value", mode="before")
     @classmethod
@@ -150,9 +147,9 @@ MAX_LINE_POINTS = 10_000
 
 
 class _Line(_Section):
-    """A profile along a segment (``observables.lines.NAME``): ``from: [x, y]``, ``to: [x, y]``, ``points: N``
-    (2 to 10000 equally spaced samples, both ends included). (``from`` is a Python keyword: the class is made
-    by ``create_model`` below, and the start is ``line.start``.)"""
+    """A profile along a segment fixed in space (``observables.lines.NAME``), written at every field-output
+    step to ``line_NAME.csv``. (``from`` is a Python keyword: the class is made by ``create_model`` below, its
+    fields described there, and the start is ``line.start``.)"""
 
     @field_validator("to", check_fields=False)
     @classmethod
@@ -174,31 +171,37 @@ class _Line(_Section):
         return lam * float(np.linalg.norm(b - a)), a + lam[:, None] * (b - a)
 
 
-Line = create_model("Line", __base__=_Line, __module__=__name__, **{
-    "from": (Point, ...), "to": (Point, ...), "points": (int, Field(ge=2, le=MAX_LINE_POINTS))})
+Line = create_model("Line", __base__=_Line, __module__=__name__, __doc__=(
+    "A profile along a segment fixed in space, written at every field-output step to ``line_NAME.csv``."), **{
+    "from": (Point, Field(description="Start [x, y] of the segment (m); the arc length s counts from it.")),
+    "to": (Point, Field(description="End [x, y] of the segment (m); not the start.")),
+    "points": (int, Field(ge=2, le=MAX_LINE_POINTS, description="Number N of equally spaced samples, both ends "
+                                                                "included; each must lie in the mesh."))})
 
 
 class ObservableSet(_Section):
-    """What a file scene reports by name (``observables``), besides energies and flow rate.
-
-    ``forces``: named boundaries (each once) whose force on the body (drag, lift: residual and surface
-    forms) is reported; ``wetted_solid``: add the fluid–solid interface. ``points``: probes fixed in space
-    (columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with micropolar terms also ``omega_NAME``; a point outside
-    the mesh is an error at setup); ``solid_points``: material points of the solid, the solid node nearest to
-    the given reference position, moving with it (``ux_NAME``, ``uy_NAME``: its displacement; run.log says
-    which node and how far from the asked position). ``lines``: profiles along segments fixed in space,
-    ``{NAME: {from: [x, y], to: [x, y], points: N}}``, written at every field-output step (``output.every``;
-    the initial state too on a time-dependent run) to ``line_NAME.csv``: long format, header
-    ``t,s,x,y,u,v,p`` (``omega`` appended with micropolar terms), N rows per output time, ``s`` the arc
-    length from ``from`` (pandas: ``read_csv`` then ``groupby("t")``; ParaView's CSV reader reads it as a
-    table). Every sample must lie in the mesh (an error at setup names the line).
-    """
+    """What a file scene reports by name (``observables``), besides energies and flow rate: columns of
+    timeseries.csv and line profiles. NAME: 1 to 40 letters, digits or '_'."""
 
     forces: list[str] = Field(default_factory=list)
+    """Named boundaries (each once) that make up the body whose force is reported: columns ``drag``, ``lift``
+    (residual form) and ``drag_surface``, ``lift_surface`` (−∫ T n), summed over them (N, per unit depth in
+    2D)."""
     wetted_solid: bool = False
+    """Add the fluid–solid interface to the body of ``forces``."""
     points: dict[str, Point] = Field(default_factory=dict)
+    """Probes fixed in space, ``{NAME: [x, y]}`` (m): columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with
+    micropolar terms also ``omega_NAME``; a point outside the mesh is an error at setup."""
     solid_points: dict[str, Point] = Field(default_factory=dict)
+    """Material points of the solid, ``{NAME: [x, y]}`` (m): the solid node nearest to the given reference
+    position, moving with it; columns ``ux_NAME``, ``uy_NAME`` (its displacement; run.log says which node and
+    how far from the asked position)."""
     lines: dict[str, Line] | None = None
+    """Profiles along segments fixed in space, ``{NAME: {from: [x, y], to: [x, y], points: N}}``, written at
+    every field-output step (``output.every``; the initial state too on a time-dependent run) to
+    ``line_NAME.csv``: long format, header ``t,s,x,y,u,v,p`` (``omega`` appended with micropolar terms), N rows
+    per output time, ``s`` the arc length from ``from`` (pandas: ``read_csv`` then ``groupby("t")``; ParaView's
+    CSV reader reads it as a table)."""
 
     @field_validator("points", "solid_points", "lines")
     @classmethod
@@ -218,22 +221,24 @@ class ObservableSet(_Section):
 
 
 class Reference(_Section):
-    """A reference for one time-series column (``reference: {COLUMN: {...}}``): the run ends with a pass/FAIL
-    verdict per entry (app/verdict.py), like a built-in benchmark's.
-
-    ``value``: the column's final value; or, for a periodic column, any of ``mean``, ``amplitude``,
-    ``frequency`` (the periodic analysis of summary.json over the run; a column that is not periodic by the
-    end FAILs). ``tolerance``: the allowed relative error |computed − reference| / |reference|, or
-    ``abs_tolerance``: the allowed absolute error (needed for a reference of 0); exactly one of them.
-    COLUMN must be a column of the scene's timeseries.csv (checked at setup).
-    """
+    """A reference for one time-series column (``reference: {COLUMN: {...}}``; COLUMN a column of the scene's
+    timeseries.csv, checked at setup): the run ends with a pass/FAIL verdict per entry (app/verdict.py), like
+    a built-in benchmark's. Give ``value``, or any of the periodic parts ``mean``, ``amplitude``,
+    ``frequency``; and exactly one of ``tolerance`` and ``abs_tolerance``."""
 
     value: float | None = None
+    """The column's final value."""
     mean: float | None = None
+    """The column's mean (max + min)/2 over its last full period (the periodic analysis of summary.json; a
+    column that is not periodic by the end FAILs)."""
     amplitude: NonNegFloat | None = None
+    """The column's amplitude (max − min)/2 over its last full period."""
     frequency: PositiveFloat | None = None
+    """The column's frequency (Hz) over its last full periods."""
     tolerance: PositiveFloat | None = None
+    """Allowed relative error |computed − reference| / |reference|."""
     abs_tolerance: PositiveFloat | None = None
+    """Allowed absolute error |computed − reference| (needed for a reference of 0)."""
 
     @model_validator(mode="after")
     def _parts(self):
@@ -256,16 +261,18 @@ class Reference(_Section):
 
 
 class Output(_Section):
-    """Output: field-output interval in steps, whether to write fields, progress bar, checkpoint interval.
-
-    ``checkpoint_every``: steps between checkpoints (default 1000); a time-dependent run also writes one at
-    its last step, so ``cosserat-fsi run SCENE --restart OUT --set time.t_end=LATER`` extends a finished run
-    without recomputing it; 0: checkpoints only on SIGTERM/SIGINT (none at the end)."""
+    """What a run writes besides timeseries.csv and summary.json, and how often."""
 
     every: int = Field(default=10, ge=1, le=MAX_COUNT)
+    """Steps between field outputs (fields.xdmf and the ``observables.lines`` profiles)."""
     fields: bool = True
+    """Write the fields (velocity, pressure, micro-rotation, displacement) to fields.xdmf + fields.h5."""
     progress: bool = True
+    """Show a progress bar on the terminal (``--no-progress`` turns it off too)."""
     checkpoint_every: int = Field(default=1000, ge=0, le=MAX_COUNT)
+    """Steps between checkpoints; a time-dependent run also writes one at its last step, so ``cosserat-fsi run
+    SCENE --restart OUT --set time.t_end=LATER`` extends a finished run without recomputing it. 0: checkpoints
+    only on SIGTERM/SIGINT (none at the end)."""
 
 
 def check_boundary_data(scene) -> None:

@@ -21,9 +21,10 @@ PositiveFloat = Annotated[float, Field(gt=0)]
 
 class GeometryBase(BaseModel):
     """A mesh level (0..MAX_LEVEL, each halving the element size; ``seed`` where the seed paper's mesh
-    exists). ``null`` for any key means its default."""
+    exists). ``null`` for any key means its default. The string literal under a field is its description."""
 
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)  # as config._Section
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False,
+                              use_attribute_docstrings=True)  # as config._Section
 
     SEED: ClassVar[bool] = False  # has level "seed" (the seed paper's mesh size)
     FLUID: ClassVar[bool] = True  # has fluid cells: the scene needs a fluid section
@@ -32,7 +33,10 @@ class GeometryBase(BaseModel):
     DIM: ClassVar[int] = 2  # space dimension of the mesh (2: triangles, 3: tetrahedra)
 
     name: str
+    """The geometry (the tag of the union)."""
     level: int | Literal["seed"] = 0
+    """Mesh level 0 to 6: each level halves the element size (about 4× the vertices in 2D, 8× in 3D);
+    ``seed`` (turek_hron only): the seed paper's mesh size."""
 
     @model_validator(mode="before")
     @classmethod

@@ -28,7 +28,10 @@ class Box(GeometryBase):
     """Closed unit box around a solid disk of ``radius`` (default 0.2, below 0.5)."""
 
     name: Literal["box"] = "box"
+    """Closed box [0, 1] × [0, 1], fluid around a solid disk centred at (0.5, 0.5) (an energy test); facets
+    ``walls`` (the four sides) and ``interface`` (the circle)."""
     radius: float = Field(default=0.2, ge=0.01, lt=0.5)  # below 0.01 the disk is smaller than its cells
+    """Radius of the solid disk (m)."""
 
     @property
     def solid_cells(self) -> bool:

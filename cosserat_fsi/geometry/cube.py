@@ -18,7 +18,10 @@ class Cube(GeometryBase):
 
     DIM: ClassVar[int] = 3
     name: Literal["cube"] = "cube"
+    """3D cube cavity [0, length]³, structured tetrahedra (2·2^level divisions per side); facets ``lid`` (the
+    top y = length) and ``walls`` (the five other sides)."""
     length: PositiveFloat = 1.0
+    """Side (m)."""
 
     def msh_params(self) -> dict[str, Any]:
         return {"size": float(self.length)}

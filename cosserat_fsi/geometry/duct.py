@@ -19,9 +19,14 @@ class Duct(GeometryBase):
 
     DIM: ClassVar[int] = 3
     name: Literal["duct"] = "duct"
+    """3D rectangular duct [0, length] × [0, height] × [0, width], structured tetrahedra; facets ``inlet``
+    (x = 0), ``outlet`` (x = length), ``walls`` (the four other faces)."""
     length: PositiveFloat = 2.0
+    """Length in x (m), the flow direction."""
     height: PositiveFloat = 1.0
+    """Height in y (m); the cells' size is height / (2·2^level)."""
     width: PositiveFloat = 1.0
+    """Width in z (m)."""
 
     def msh_params(self) -> dict[str, Any]:
         return {"length": float(self.length), "height": float(self.height), "width": float(self.width)}

@@ -45,19 +45,26 @@ SUFFIXES = (".geo", ".msh")
 class CellNames(BaseModel):
     """Physical names of the cell groups that are fluid and solid."""
 
-    model_config = ConfigDict(extra="forbid", strict=True)
+    model_config = ConfigDict(extra="forbid", strict=True, use_attribute_docstrings=True)
 
     fluid: list[str] = Field(default_factory=lambda: ["fluid"], min_length=1)
+    """Physical names of the file's fluid cell groups."""
     solid: list[str] = Field(default_factory=lambda: ["solid"])
+    """Physical names of the file's solid cell groups (those present make the solid cells)."""
 
 
 class FileGeometry(GeometryBase):
-    """A gmsh ``.geo`` or ``.msh`` file with physical names (see the module docstring)."""
+    """A user's gmsh ``.geo`` or ``.msh`` file with physical names (the module docstring says how it is read)."""
 
     SOLID_FROM_FILE: ClassVar[bool] = True  # solid cells if the file has them (checked when it is read)
     name: Literal["file"] = "file"
+    """A user's own 2D gmsh mesh with physical names: the facet groups keep the file's names (the scene's
+    ``boundaries`` give their conditions); boundary facets in no group become the group ``default``."""
     path: str
+    """A gmsh ``.geo`` (meshed with Mesh.MeshSizeFactor × 2^-level) or ``.msh`` (read as it is) file,
+    relative to the scene file's folder or absolute."""
     cells: CellNames = Field(default_factory=CellNames)
+    """Which physical cell groups are fluid and which solid."""
     trusted: bool = False
     """``true``: the .geo may run programs and reach files outside its folder (geo_scan.py; refused else)."""
 

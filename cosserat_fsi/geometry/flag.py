@@ -26,9 +26,15 @@ class Flag(GeometryBase):
 
     FLUID: ClassVar[bool] = False
     name: Literal["flag"] = "flag"
+    """The Turek–Hron flag alone (CSM tests, free vibration), solid cells only (no fluid section); facets
+    ``clamp`` (the left edge) and ``interface`` (the free edges); point A = (length, height/2)."""
     length: PositiveFloat = 0.35
+    """Length of the flag in x (m)."""
     height: PositiveFloat = 0.02
+    """Thickness of the flag in y (m)."""
     clamp: Literal["straight", "arc"] = "straight"
+    """The clamped left edge: ``straight`` (x = 0) or ``arc``, the arc of the Turek–Hron cylinder (radius
+    0.05) through (0, height/2), as in the benchmark."""
 
     @property
     def solid_cells(self) -> bool:

@@ -24,6 +24,9 @@ class SchaeferTurek(GeometryBase):
 
     INFLOW: ClassVar[bool] = True
     name: Literal["schaefer_turek"] = "schaefer_turek"
+    """Schäfer–Turek 2D flow around a cylinder: channel 2.2 × 0.41, cylinder at (0.2, 0.2) of radius 0.05;
+    facets ``inlet``, ``outlet``, ``walls``, ``cylinder``; points a1, a2 (the pressure difference). Needs an
+    inflow section."""
 
 
 def describe(params: dict[str, Any]) -> dict[str, Any]:

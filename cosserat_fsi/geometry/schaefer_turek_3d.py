@@ -27,6 +27,8 @@ class SchaeferTurek3D(GeometryBase):
     DIM: ClassVar[int] = 3
     INFLOW: ClassVar[bool] = True
     name: Literal["schaefer_turek_3d"] = "schaefer_turek_3d"
+    """Schäfer–Turek 3D (3D-1Z/2Z/3Z): duct 2.5 × 0.41 × 0.41, a cylinder of diameter 0.1 across it at (0.5,
+    0.2); facets ``inlet``, ``outlet``, ``walls``, ``cylinder``. Needs an inflow section."""
 
 
 def describe(params: dict[str, Any]) -> dict[str, Any]:

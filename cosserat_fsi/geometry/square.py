@@ -16,7 +16,10 @@ class Square(GeometryBase):
     """Square cavity of side ``length`` (default 1) with a moving lid."""
 
     name: Literal["square"] = "square"
+    """Square cavity [0, length]², structured triangles (8 × 8 at level 0); facets ``lid`` (the top, moving
+    with an inflow section) and ``walls`` (left, right, bottom)."""
     length: PositiveFloat = 1.0
+    """Side (m)."""
 
     def msh_params(self) -> dict[str, Any]:
         return {"size": float(self.length)}

@@ -40,8 +40,14 @@ class TurekHron(GeometryBase):
     SEED: ClassVar[bool] = True
     INFLOW: ClassVar[bool] = True
     name: Literal["turek_hron"] = "turek_hron"
+    """Turek–Hron: channel 2.5 × 0.41, cylinder at (0.2, 0.2) of radius 0.05, flag [0.249, 0.6] × [0.19,
+    0.21]; facets ``inlet``, ``outlet``, ``walls``, ``cylinder``, ``interface``; points A (flag tip), B. Needs
+    an inflow section."""
     flag: Literal["solid", "rigid"] = "solid"
+    """``solid``: an elastic flag (FSI; needs a solid section); ``rigid``: a hole in the fluid (CFD)."""
     flag_mesh: Literal["unstructured", "structured"] = "unstructured"
+    """The flag's triangles (flag solid): ``unstructured`` or ``structured`` (transfinite, 2·2^level cells
+    across); the tip deflection converges more regularly on the structured one."""
 
     @property
     def solid_cells(self) -> bool:

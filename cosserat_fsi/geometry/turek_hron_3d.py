@@ -37,8 +37,13 @@ class TurekHron3D(GeometryBase):
     DIM: ClassVar[int] = 3
     INFLOW: ClassVar[bool] = True
     name: Literal["turek_hron_3d"] = "turek_hron_3d"
+    """Turek–Hron extruded in z (the project's own 3D variant, no published reference): duct 2.5 × 0.41 ×
+    width, a cylinder across it, an elastic flag in the middle; facets as turek_hron; point A (tip middle).
+    Needs inflow and solid sections."""
     width: float = Field(default=0.41, gt=0.0, le=10.0)
+    """Width of the duct in z (m)."""
     flag_width: float = Field(default=0.2, gt=0.0, le=10.0)
+    """Span of the flag in z (m), centred in the duct; less than ``width``."""
 
     @model_validator(mode="after")
     def _flag_inside(self):
