@@ -283,13 +283,12 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path
 
 
 def pareto_figure(study, points, labels, groups, front):
-    """The Pareto plot: worst error against wall time, one labelled series (runs and front) per group."""
-    import matplotlib
+    """The Pareto plot: worst error against wall time, one labelled series (runs and front) per group. A
+    figure outside pyplot: the caller's matplotlib backend (a notebook's inline one) is left as it is."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = Figure(figsize=(7, 4.5))
+    ax = fig.subplots()
     xs, ys = [p[0] for p in points], [max(p[1], 1e-6) for p in points]
     for group, members in front.items():
         mine = [i for i, g in enumerate(groups) if g == group]
@@ -310,13 +309,10 @@ def pareto_figure(study, points, labels, groups, front):
 
 
 def _plot(study, points, labels, groups, front, out: Path) -> str:
-    import matplotlib.pyplot as plt
-
     fig = pareto_figure(study, points, labels, groups, front)
     path = out / "figures" / f"study_{study.name}_pareto.png"
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return str(path.relative_to(out))
 
 
