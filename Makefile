@@ -38,7 +38,9 @@ NUMBA_PIN := numba==0.68.1 llvmlite==0.50.0
 # The documentation tools (make docs), pinned: the build runs with warnings as errors, so a new Sphinx or MyST
 # release could fail it. myst-nb brings myst-parser (pinned too: it parses every page) and executes the
 # tutorials through ipykernel; jupytext reads the tutorials' MyST notebooks. None of them needs a newer numpy.
-PIP_DOCS := sphinx==9.0.4 furo==2025.12.19 myst-nb==1.4.0 myst-parser==5.2.0 jupytext==1.19.6 ipykernel==7.4.0
+# ipython 9 and matplotlib-inline 0.2 do not work with Debian's matplotlib 3.6 (no figure reaches a notebook).
+PIP_DOCS := sphinx==9.0.4 furo==2025.12.19 myst-nb==1.4.0 myst-parser==5.2.0 jupytext==1.19.6 ipykernel==7.4.0 \
+            ipython==8.39.0 matplotlib-inline==0.1.7
 PIP_DEBIAN := pydantic>=2 tqdm pytest pytest-xdist pyvista ruff $(NUMBA_PIN) $(PIP_DOCS)
 MPIRUN_DEBIAN := mpirun --allow-run-as-root --oversubscribe
 

@@ -66,7 +66,8 @@ def _build_checked(scene: Scene) -> Path:
 
 def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
               restart: bool = False, commit: Callable[[], None] | None = None) -> dict:
-    """Run ``scene`` and write its outputs into ``out_dir``; returns the summary (also summary.json).
+    """Run ``scene`` and write its outputs into ``out_dir`` (created if missing); returns the summary (also
+    summary.json).
 
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
     output): the time series and fields after the checkpoint are dropped and rewritten; field steps
@@ -115,6 +116,8 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     def start():  # rank 0: from here on the folder is this run's
         if commit is not None:
             commit()
+        else:  # called from Python: the folder is the caller's
+            out_dir.mkdir(parents=True, exist_ok=True)
         atomic_write_text(out_dir / "config.yaml", dump_resolved(scene, conditions))
 
     on_root(comm, start, step="commit")
