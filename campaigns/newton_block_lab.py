@@ -2,6 +2,7 @@
 "Steady Newton steps in 3D").
 
     python campaigns/newton_block_lab.py CONFIG LEVEL VARIANTS_JSON [--at rest solution] [--block] [--set k=v ...]
+    python campaigns/newton_block_lab.py CONFIG LEVEL '[]' --at rest --mumps-estimate
 
 The scene (a steady one, e.g. configs/schaefer_turek_3d1z.yaml) at geometry level LEVEL: its Newton Jacobian
 at rest (the boundary data only: nearly Stokes) and at its solution (converged by MUMPS first: the full
@@ -11,7 +12,11 @@ not make up most of ‖b‖. Each variant is ``{"name": ..., "opts": {petsc opti
 the opts go to ``solver.petsc_options`` of ``solver.type: iterative`` (FGMRES to rtol 1e-8, at most 300
 iterations); ``"schur": "mass"`` drops the convection from the Schur approximation. With ``--block`` only the
 velocity block is solved, by GMRES(200) to rtol 1e-8, with ``"pc"`` (default hypre) and the opts under the
-prefix ``lab_``. Prints one line per (state, variant): iterations, seconds, outcome.
+prefix ``lab_``. Prints one line per (state, variant): iterations, seconds, outcome. With ``--mumps-estimate``
+MUMPS analyses the Jacobian (the ordering and symbolic factorisation of the code's direct solver, no numerical
+factorisation: it is stopped by a 1 MB working-memory limit) and prints its estimates: the factorisation's
+memory (INFOG(16): the largest rank, INFOG(17): all ranks, in MB), the factors' entries (INFOG(3)) and the
+elimination's flops (RINFOG(1)): what MUMPS would need at a size that does not fit.
 """
 
 from __future__ import annotations
@@ -81,6 +86,32 @@ def _block(sim, A, variant, comm) -> tuple[int, str]:
     return its, "converged" if reason > 0 else f"not converged (reason {reason})"
 
 
+def _mumps_estimate(A, comm) -> str:
+    """MUMPS's analysis of A with the direct solver's controls (scheme/linear_solver.py), no factorisation."""
+    from cosserat_fsi.scheme.linear_solver import MUMPS_ORDERING
+
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOperators(A)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    pc.setFactorSetUpSolverType()
+    F = pc.getFactorMatrix()
+    F.setMumpsIcntl(7, MUMPS_ORDERING["auto"])
+    F.setMumpsIcntl(14, 100)
+    F.setMumpsIcntl(24, 1)
+    F.setMumpsIcntl(23, 1)  # 1 MB of working memory allowed: the factorisation stops after the analysis (-19)
+    pc.setUp()
+    stopped, largest, total = F.getMumpsInfog(1), F.getMumpsInfog(16), F.getMumpsInfog(17)
+    entries = F.getMumpsInfog(3)  # the factors' entries (estimated; negative: millions)
+    entries = -1e6 * entries if entries < 0 else entries
+    flops = F.getMumpsRinfog(1)  # the elimination's floating-point operations (estimated)
+    ksp.destroy()
+    return (f"MUMPS analysis (INFOG(1) = {stopped}): factorisation memory {largest} MB on the largest rank, "
+            f"{total} MB in all; {entries:.3g} entries in the factors, {flops:.3g} flops")
+
+
 def main() -> None:
     import dolfinx.fem.petsc as fem_petsc
 
@@ -94,6 +125,7 @@ def main() -> None:
     parser.add_argument("variants", type=json.loads)
     parser.add_argument("--at", nargs="+", default=["rest", "solution"], choices=["rest", "solution"])
     parser.add_argument("--block", action="store_true", help="the velocity block alone")
+    parser.add_argument("--mumps-estimate", action="store_true", help="MUMPS's memory estimate (analysis only)")
     parser.add_argument("--set", nargs="*", default=[])
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
@@ -113,6 +145,11 @@ def main() -> None:
         fem_petsc.assemble_matrix(newton.A, newton.J, bcs=newton.bcs)
         newton.A.assemble()
         A, state = newton.A.copy(), stepper.solution.x.array.copy()
+        if args.mumps_estimate:
+            start = time.perf_counter()
+            line = _mumps_estimate(A, comm)
+            if comm.rank == 0:
+                print(f"{where:8s} {A.getSize()[0]} unknowns: {line} ({time.perf_counter() - start:.1f} s)", flush=True)
         for variant in args.variants:
             start = time.perf_counter()
             its, outcome = _block(sim, A, variant, comm) if args.block else _full(sim, A, state, variant, comm)
