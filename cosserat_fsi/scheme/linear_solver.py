@@ -51,16 +51,19 @@ size: 2-2.5x faster per step at every measured size with the same growth, and a 
 (docs/performance.md, "Direct or iterative")."""
 _PREFIXES = itertools.count()
 log = logging.getLogger("cosserat_fsi")
-_ITERATIVE: weakref.WeakSet = weakref.WeakSet()  # the live iterative solvers (their KSPs destroyed at exit)
+_ITERATIVE: list[weakref.ref] = []  # the iterative solvers in the order of creation (their KSPs destroyed at exit)
 
 
 @atexit.register
 def _destroy_iterative_solvers() -> None:
     """Destroy the iterative solvers' KSPs while Python still runs: their Schur approximations are petsc4py
     ``python`` PCs, whose destruction calls back into Python; left to PetscFinalize, which runs after the
-    interpreter has ended, it crashed the process at exit (SIGSEGV, exit code 59) after a completed run."""
-    for solver in list(_ITERATIVE):
-        solver.ksp.destroy()
+    interpreter has ended, it crashed the process at exit (SIGSEGV, exit code 59) after a completed run. In
+    the order of creation, the same on every rank (a destruction may be collective)."""
+    for ref in _ITERATIVE:
+        solver = ref()
+        if solver is not None:
+            solver.ksp.destroy()
 
 
 @functools.cache
@@ -130,7 +133,7 @@ class LinearSolver:
             log.info(why)
         self.iterative = kind == "iterative"
         if self.iterative:
-            _ITERATIVE.add(self)
+            _ITERATIVE[:] = [ref for ref in _ITERATIVE if ref() is not None] + [weakref.ref(self)]
         self.amg = resolved_amg(getattr(solver_config, "amg", "auto"))
         self.reuse = reuse_factorization and not self.iterative
         self.factorisations = 0
