@@ -86,28 +86,22 @@ def _block(sim, A, variant, comm) -> tuple[int, str]:
     return its, "converged" if reason > 0 else f"not converged (reason {reason})"
 
 
-def _mumps_estimate(A, comm) -> str:
-    """MUMPS's analysis of A with the direct solver's controls (scheme/linear_solver.py), no factorisation."""
-    from cosserat_fsi.scheme.linear_solver import MUMPS_ORDERING
+def _mumps_estimate(sim, A, comm) -> str:
+    """MUMPS's analysis of A by the scene's direct solver (scheme/linear_solver.py: its controls), stopped
+    before the numerical factorisation."""
+    from cosserat_fsi.scheme.linear_solver import LinearSolver
 
-    ksp = PETSc.KSP().create(comm)
-    ksp.setOperators(A)
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType("lu")
-    pc.setFactorSolverType("mumps")
-    pc.setFactorSetUpSolverType()
+    solver = LinearSolver(sim.scene.solver.model_copy(update={"type": "direct", "petsc_options": {}}), comm)
+    solver.set_operator(A)
+    pc = solver.ksp.getPC()
     F = pc.getFactorMatrix()
-    F.setMumpsIcntl(7, MUMPS_ORDERING["auto"])
-    F.setMumpsIcntl(14, 100)
-    F.setMumpsIcntl(24, 1)
     F.setMumpsIcntl(23, 1)  # 1 MB of working memory allowed: the factorisation stops after the analysis (-19)
     pc.setUp()
     stopped, largest, total = F.getMumpsInfog(1), F.getMumpsInfog(16), F.getMumpsInfog(17)
     entries = F.getMumpsInfog(3)  # the factors' entries (estimated; negative: millions)
     entries = -1e6 * entries if entries < 0 else entries
     flops = F.getMumpsRinfog(1)  # the elimination's floating-point operations (estimated)
-    ksp.destroy()
+    solver.ksp.destroy()
     return (f"MUMPS analysis (INFOG(1) = {stopped}): factorisation memory {largest} MB on the largest rank, "
             f"{total} MB in all; {entries:.3g} entries in the factors, {flops:.3g} flops")
 
@@ -147,7 +141,7 @@ def main() -> None:
         A, state = newton.A.copy(), stepper.solution.x.array.copy()
         if args.mumps_estimate:
             start = time.perf_counter()
-            line = _mumps_estimate(A, comm)
+            line = _mumps_estimate(sim, A, comm)
             if comm.rank == 0:
                 print(f"{where:8s} {A.getSize()[0]} unknowns: {line} ({time.perf_counter() - start:.1f} s)", flush=True)
         for variant in args.variants:

@@ -2,12 +2,13 @@
 (docs/performance.md, "Direct vs iterative" and "Iterations under refinement").
 
     python campaigns/solver_ladder.py [--quick] [--ranks 1 2] [--cases ...] [--solvers direct iterative]
-                                      [--amg auto] [--out docs/runs/solver_ladder.json]
+                                      [--amg auto] [--set key=value ...] [--out docs/runs/solver_ladder.json]
 
 A case is inline scene sections or a shipped config with overrides (FSI3: the first 10 steps from rest, the
 fixed δt = 0.005; fsi3d: the 3D flag, 4 steps, MUMPS keeping its factorisation, fsi3d_refactorised: a
 factorisation every step; 3d_cavity: the lid-driven cube). Per run: the linear solver's counts (solves,
-Krylov iterations mean and largest per solve), CPU and wall time per step, peak memory per rank.
+Krylov iterations mean and largest per solve), CPU and wall time per step, peak memory per rank. ``--set``
+overrides scene keys of every config case (e.g. ``solver.krylov_rtol=1e-8``).
 
 Each case is a fixed-mesh BDF2 scene run for 4 steps in a subprocess (serial, or under the stack's
 mpirun): step 1 includes the first factorisation (direct) or the AMG setup (iterative), step 2 the second
@@ -122,6 +123,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("docs/runs/solver_ladder.json"))
     parser.add_argument("--solvers", nargs="+", default=["direct", "iterative"])
     parser.add_argument("--amg", default="auto", choices=["auto", "gamg", "hypre"])
+    parser.add_argument("--set", nargs="*", default=[], help="scene overrides for the config cases")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one case (JSON sections)
     parser.add_argument("--steps", type=int, default=4, help=argparse.SUPPRESS)
     parser.add_argument("--table", action="store_true", help="print the markdown table of --out and stop")
@@ -149,7 +151,7 @@ def main() -> None:
                         continue
                     scene = json.loads(json.dumps(sections))
                     if "config" in scene:
-                        scene["set"] += [f"geometry.level={level}", f"solver.type={solver}"]
+                        scene["set"] += [*args.set, f"geometry.level={level}", f"solver.type={solver}"]
                         scene["set"] += [f"solver.amg={amg}"] if amg else []
                     else:
                         scene["geometry"]["level"] = level

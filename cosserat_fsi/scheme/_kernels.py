@@ -35,11 +35,11 @@ if numba is not None and os.environ.get("NUMBA_CACHE_DIR") and not numba.config.
     numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]  # numba was imported before the variable was set
 
 
-def _jit(fn):
+def jit(fn):
     return numba.njit(cache=True, nogil=True, error_model="numpy")(fn) if numba is not None else fn
 
 
-@_jit
+@jit
 def first_inside(points, offsets, candidates, x0, Jinv, tol, cell_limit):
     """Per point, the first candidate cell (offsets/candidates: a CSR list per point) below
     ``cell_limit`` whose barycentric test passes (min(λ0, λ1, λ2) ≥ −tol), else −1."""
@@ -60,7 +60,7 @@ def first_inside(points, offsets, candidates, x0, Jinv, tol, cell_limit):
     return cells
 
 
-@_jit
+@jit
 def _walk_one(px, py, c, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     """``walk`` for one point (px, py) from cell c: (the cell found or −1, its λ0, λ1, λ2 there)."""
     for _ in range(max_steps):
@@ -77,7 +77,7 @@ def _walk_one(px, py, c, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     return -1, 0.0, 0.0, 0.0
 
 
-@_jit
+@jit
 def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     """Per point, a cell containing it found by walking from ``start`` (the hint cell) towards it:
     test the barycentric coordinates (min(λ0, λ1, λ2) ≥ −tol: found), else cross the edge opposite the
@@ -93,13 +93,13 @@ def walk(points, start, x0, Jinv, neighbours, tol, cell_limit, max_steps):
     return cells
 
 
-@_jit
+@jit
 def _basis_l(l0, l1, l2):
     """The six P2 basis functions at barycentric coordinates (λ0, λ1, λ2): ``p2_basis``."""
     return (l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1), 4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1)
 
 
-@_jit
+@jit
 def _basis(px, py, c, x0, Jinv):
     """The six P2 basis functions of cell c at (px, py): ``barycentric`` then ``p2_basis``."""
     dx, dy = px - x0[c, 0], py - x0[c, 1]
@@ -108,7 +108,7 @@ def _basis(px, py, c, x0, Jinv):
     return _basis_l(1.0 - l1 - l2, l1, l2)
 
 
-@_jit
+@jit
 def _combine(p, values, d, b):
     """Σ_k φ_k c_k summed in k order from 0.0, as numpy's row sum; ``d``: the six dofs × bs, ``b``: the
     component."""
@@ -116,7 +116,7 @@ def _combine(p, values, d, b):
               + p[3] * values[d[3] + b]) + p[4] * values[d[4] + b]) + p[5] * values[d[5] + b]
 
 
-@_jit
+@jit
 def _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs):
     n = points.shape[0]
     out = np.zeros((n, bs))
@@ -131,7 +131,7 @@ def _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs):
     return out
 
 
-@_jit
+@jit
 def _p2_values_1(points, cells, x0, Jinv, dofs, values):
     n = points.shape[0]
     out = np.zeros((n, 1))
@@ -145,7 +145,7 @@ def _p2_values_1(points, cells, x0, Jinv, dofs, values):
     return out
 
 
-@_jit
+@jit
 def _p2_values_2(points, cells, x0, Jinv, dofs, values):
     n = points.shape[0]
     out = np.zeros((n, 2))
@@ -172,31 +172,31 @@ def p2_values(points, cells, x0, Jinv, dofs, values, bs: int) -> np.ndarray:
     return _p2_values_bs(points, cells, x0, Jinv, dofs, values, bs)
 
 
-@_jit
+@jit
 def _dofs6(dofs, c, bs):
     return (dofs[c, 0] * bs, dofs[c, 1] * bs, dofs[c, 2] * bs, dofs[c, 3] * bs, dofs[c, 4] * bs, dofs[c, 5] * bs)
 
 
-@_jit
+@jit
 def _coef(values, d, b):
     """The six coefficients of component b at the (blocked) dofs ``d``."""
     return (values[d[0] + b], values[d[1] + b], values[d[2] + b], values[d[3] + b], values[d[4] + b], values[d[5] + b])
 
 
-@_jit
+@jit
 def _combine2(a, b, e1, e2):
     """e₁a_k − e₂b_k for the six coefficients (numpy's e1 * a − e2 * b, element by element)."""
     return (e1 * a[0] - e2 * b[0], e1 * a[1] - e2 * b[1], e1 * a[2] - e2 * b[2], e1 * a[3] - e2 * b[3],
             e1 * a[4] - e2 * b[4], e1 * a[5] - e2 * b[5])
 
 
-@_jit
+@jit
 def _sum6(p, a):
     """Σ_k p_k a_k in k order from 0.0: ``_combine`` with the coefficients at hand."""
     return (((((0.0 + p[0] * a[0]) + p[1] * a[1]) + p[2] * a[2]) + p[3] * a[3]) + p[4] * a[4]) + p[5] * a[5]
 
 
-@_jit
+@jit
 def _vector_at(p, k, c, here, values, dofs):
     """Both components of a P2 2-vector at basis values p in cell k (``here``: its coefficients in c)."""
     if k == c:
@@ -205,14 +205,14 @@ def _vector_at(p, k, c, here, values, dofs):
     return _sum6(p, _coef(values, d, 0)), _sum6(p, _coef(values, d, 1))
 
 
-@_jit
+@jit
 def _scalar_at(p, k, c, here, values, dofs):
     if k == c:
         return _sum6(p, here)
     return _sum6(p, _coef(values, _dofs6(dofs, k, 1), 0))
 
 
-@_jit
+@jit
 def at_reference_points(phi, dofs, values, bs, n_cells):
     """Values (n_cells·nq, bs) of a P2 field at the same reference points ``phi`` (nq, 6 basis values)
     of every cell: Σ_k φ_k c_k in k order from 0.0 (``BackTrackingNodes.at_quadrature_nodes``)."""
@@ -227,7 +227,7 @@ def at_reference_points(phi, dofs, values, bs, n_cells):
     return out
 
 
-@_jit
+@jit
 def bdf2_quadrature(x, nq, phi, moving, steps, tol, max_steps, loc_n, loc_nm1, neighbours,
                     dofs_u, u_n, u_nm1, dofs_w, w_n, w_nm1, with_w, qdofs_u, out_u, qdofs_w, out_w):
     """The BDF2 history α h = a₁ f^n(x − δt u*) − a₂ f^{n−1}(x − δt₂ u*), u* = e₁u^n − e₂u^{n−1}, with

@@ -80,7 +80,7 @@ class BackTrackingNodes:
         as ``combine`` (and the compiled kernels) do; a matrix product would sum in BLAS's order."""
         if self.locator.tdim != 2:  # tetrahedra: dolfinx's evaluation in the known cells
             points, cells = self.quadrature_nodes(degree)
-            return f.eval(points, cells).reshape(len(points), -1)
+            return point_location.function_eval(f, points, cells)
         phi = reference_basis(degree)  # (nq, 6)
         if point_location.COMPILED and is_p2(self.locator, f):
             return _kernels.at_reference_points(phi, self.locator.dofs(f.function_space), f.x.array,

@@ -3,9 +3,9 @@ a PETSc fieldsplit Schur complement factorisation (full), the velocity (and micr
 algebraic multigrid cycle, the Schur complement S = −B K⁻¹ Bᵀ by an approximation that holds for the regime:
 
 - a time step (``reaction`` ρα/δt known): Cahouet–Chabard, S⁻¹ ≈ −(ν M⁻¹ + ρα/δt L⁻¹), M the pressure mass,
-  L the pressure Laplacian (p = 0 weakly on the open boundaries), ν = μ + μ_r; on the solid cells of an FSI
-  scene the pressure is no unknown of the flow: L carries its mass there, and the pinned pressure dofs
-  (their Dirichlet rows) are the identity;
+  L the pressure Laplacian (p = 0 weakly on the open boundaries), ν = μ + μ_r; an incompressible solid's cells
+  enter as a fluid of density ρ_s and viscosity ν + μ_s δt/α; a compressible solid's pressure is no unknown
+  of the flow: L carries its mass there, and the pinned pressure dofs (their Dirichlet rows) are the identity;
 - a steady Newton step (``convecting_velocity`` known): the pressure convection–diffusion approximation
   −M⁻¹(ν I + K_p L⁻¹), K_p the pressure convection, L with p = 0 on the inflow;
 - otherwise: the scaled pressure mass −M/(μ + μ_r) with Jacobi (spectrally equivalent to S for Stokes-like K).
@@ -101,21 +101,36 @@ def viscosity(problem) -> float:
     return mu + float(problem.mu_r.value) if problem.mu_r is not None else mu
 
 
-def _pressure_matrix(problem, integrand) -> PETSc.Mat:
-    """``integrand(p, p̃, dx)`` assembled on the mixed space (zero outside the pressure block)."""
+def pressure_order(space, pressure_is) -> PETSc.IS:
+    """The collapsed pressure space's global indices of the dofs of ``pressure_is`` (the mixed space's owned
+    pressure dofs, sorted), in its order: a matrix assembled on the pressure space alone, restricted to them
+    (``createSubMatrix``), is the pressure block of the mixed space's numbering."""
+    Q, into_W = space.collapsed["pressure"]
+    imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
+    into_W = np.asarray(into_W)
+    mine = np.asarray(pressure_is.getIndices()) - imap.local_range[0] * bs  # W-local, sorted
+    by_W = np.argsort(into_W)
+    local = by_W[np.searchsorted(into_W[by_W], mine)]  # the Q-local dof of each
+    globals_ = np.asarray(Q.dofmap.index_map.local_to_global(local.astype(np.int32)))
+    return PETSc.IS().createGeneral(globals_.astype(PETSc.IntType), comm=pressure_is.getComm())
+
+
+def _pressure_matrix(problem, integrand, order: PETSc.IS) -> PETSc.Mat:
+    """``integrand(p, p̃, dx)`` assembled on the pressure space alone (a sparsity of the pressure block only),
+    as the pressure block of the mixed space's numbering (``order``: :func:`pressure_order`)."""
     import dolfinx.fem.petsc as fem_petsc
     import ufl
 
-    W = problem.space.W
-    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
-    A = fem_petsc.assemble_matrix(compat.form(integrand(p, q, ufl.dx(domain=problem.mesh))))
+    Q = problem.space.space("pressure")
+    A = fem_petsc.assemble_matrix(compat.form(integrand(ufl.TrialFunction(Q), ufl.TestFunction(Q),
+                                                        ufl.dx(domain=problem.mesh))))
     A.assemble()
-    return A
+    return A.createSubMatrix(order, order)
 
 
-def pressure_mass_matrix(problem) -> PETSc.Mat:
-    """(p, p̃) over all cells."""
-    return _pressure_matrix(problem, lambda p, q, dx: p * q * dx)
+def pressure_mass_matrix(problem, order: PETSc.IS, cells=1.0) -> PETSc.Mat:
+    """(``cells`` p, p̃): over all cells, or those where the DG0 field ``cells`` is 1."""
+    return _pressure_matrix(problem, lambda p, q, dx: cells * p * q * dx, order)
 
 
 def _diameter(mesh) -> float:
@@ -128,11 +143,20 @@ def _diameter(mesh) -> float:
     return float(np.linalg.norm(high - low))
 
 
+def incompressible_solid(problem) -> tuple[float, float] | None:
+    """(ρ_f/ρ_s, μ_s ρ_f) of a solid whose pressure is an unknown (the incompressible law), else None."""
+    if problem.fluid_cells is None or problem.pressure_in_fluid:
+        return None
+    fluid, solid = problem.scene.fluid, problem.scene.solid
+    return float(fluid.rho) / float(solid.rho), float(solid.mu_s) * float(fluid.rho)
+
+
 def _laplace_form(problem, p, q, dx, dirichlet):
-    """(∇p, ∇p̃) over the fluid cells, (p, p̃) over the solid's, and 10/h (p, p̃) on the boundaries of the
-    types ``dirichlet`` (p = 0 weakly). Without such a boundary (a closed flow) it adds (p, p̃)/D² (D the
-    domain's diameter), which keeps the Laplacian definite (a singular one breaks the multigrid's coarse
-    solve) and changes only its lowest modes."""
+    """(∇p, ∇p̃) over the fluid cells; over the solid's (ρ_f/ρ_s)(∇p, ∇p̃) where the solid's pressure is an
+    unknown (the Laplacian of the inverse density: the solid's inertia ρ_s α/δt), else (p, p̃) (its pressure
+    is pinned); and 10/h (p, p̃) on the boundaries of the types ``dirichlet`` (p = 0 weakly). Without such a
+    boundary (a closed flow) it adds (p, p̃)/D² (D the domain's diameter), which keeps the Laplacian definite
+    (a singular one breaks the multigrid's coarse solve) and changes only its lowest modes."""
     import ufl
 
     mesh = problem.mesh
@@ -141,7 +165,10 @@ def _laplace_form(problem, p, q, dx, dirichlet):
     fixed = [problem.facet_ids[name] for name, bc in problem.conditions().items()
              if dirichlet(bc.type) and name in problem.facet_ids]
     form = fluid * ufl.inner(ufl.grad(p), ufl.grad(q)) * dx
-    if problem.fluid_cells is not None:
+    solid = incompressible_solid(problem)
+    if solid is not None:
+        form = form + solid[0] * (1.0 - fluid) * ufl.inner(ufl.grad(p), ufl.grad(q)) * dx
+    elif problem.fluid_cells is not None:
         form = form + (1.0 - fluid) * p * q * dx
     for tag in fixed:
         form = form + 10.0 / ufl.CellDiameter(mesh) * p * q * ds(tag)
@@ -162,27 +189,27 @@ def _inflow(kind: str) -> bool:
     return kind == "velocity"
 
 
-def pressure_laplace_matrix(problem, dirichlet=_open) -> PETSc.Mat:
+def pressure_laplace_matrix(problem, order: PETSc.IS, dirichlet=_open) -> PETSc.Mat:
     """The Schur approximations' pressure Laplacian A_p (:func:`_laplace_form`)."""
-    return _pressure_matrix(problem, lambda p, q, dx: _laplace_form(problem, p, q, dx, dirichlet))
+    return _pressure_matrix(problem, lambda p, q, dx: _laplace_form(problem, p, q, dx, dirichlet), order)
 
 
 def convection_form(problem, velocity):
     """K_p = ρ (w·∇p, p̃): the pressure convection by ``velocity`` (the Newton iterate's), compiled."""
     import ufl
 
-    W = problem.space.W
-    (_, p, _), (_, q, _) = problem.split(ufl.TrialFunction(W)), problem.split(ufl.TestFunction(W))
+    Q = problem.space.space("pressure")
+    p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
     return compat.form(problem.rho * ufl.dot(velocity, ufl.grad(p)) * q * ufl.dx(domain=problem.mesh))
 
 
 class _PressureSchur:
-    """A Schur approximation from the pressure mass M_p (by Jacobi) and Laplacian A_p (by one AMG cycle), as a
-    petsc4py ``python`` PC (``apply`` in the subclasses)."""
+    """A Schur approximation from the pressure mass M_p (by its diagonal) and Laplacian A_p (by one AMG cycle),
+    as a petsc4py ``python`` PC (``apply`` in the subclasses)."""
 
-    def __init__(self, mass, laplace, nu, amg, comm):
+    def __init__(self, laplace, nu, amg, comm):
         self.nu = nu
-        self.mass_ksp, self.lap_ksp = _inner_solver(mass, "jacobi", comm), _inner_solver(laplace, amg, comm)
+        self.lap_ksp = _inner_solver(laplace, amg, comm)
 
     def setUp(self, pc):
         pass
@@ -194,9 +221,10 @@ class PressureConvectionDiffusion(_PressureSchur):
     Newton step, as a petsc4py ``python`` PC; A_p with p = 0 on the inflow, by one AMG cycle; M_p⁻¹ by Jacobi;
     K_p reassembled with each Newton iterate (:meth:`update`). With ρα/δt M_p in K_p it is Cahouet–Chabard."""
 
-    def __init__(self, mass, laplace, kp_form, pressure, nu, amg, comm):
-        super().__init__(mass, laplace, nu, amg, comm)
-        self.kp_form, self.pressure = kp_form, pressure
+    def __init__(self, mass, laplace, kp_form, order, nu, amg, comm):
+        super().__init__(laplace, nu, amg, comm)
+        self.mass_ksp = _inner_solver(mass, "jacobi", comm)
+        self.kp_form, self.order = kp_form, order
         self.full = self.Kp = None
         self.t, self.s = mass.createVecLeft(), mass.createVecLeft()
 
@@ -210,7 +238,7 @@ class PressureConvectionDiffusion(_PressureSchur):
             self.full.zeroEntries()
             fem_petsc.assemble_matrix(self.full, self.kp_form)
         self.full.assemble()
-        self.Kp = self.full.createSubMatrix(self.pressure, self.pressure, submat=self.Kp)
+        self.Kp = self.full.createSubMatrix(self.order, self.order, submat=self.Kp)
 
     def apply(self, pc, x, y):
         self.lap_ksp.solve(x, self.t)
@@ -236,16 +264,37 @@ def _inner_solver(A, pc_type, comm) -> PETSc.KSP:
 
 
 class CahouetChabard(_PressureSchur):
-    """S⁻¹ ≈ −(ν M⁻¹ + (ρα/δt) L⁻¹) (Cahouet & Chabard 1988) as a petsc4py ``python`` PC: M⁻¹ by Jacobi, L⁻¹ by
-    one AMG cycle; ρα/δt is read from ``owner.reaction`` at each application (it changes with δt)."""
+    """S⁻¹ ≈ −(ν M⁻¹ + (ρα/δt) L⁻¹) (Cahouet & Chabard 1988) as a petsc4py ``python`` PC: M⁻¹ by its diagonal,
+    L⁻¹ by one AMG cycle; ρα/δt is read from ``owner.reaction`` at each application (it changes with δt).
 
-    def __init__(self, owner, mass, laplace, nu, amg, comm, pinned):
-        super().__init__(mass, laplace, nu, amg, comm)
+    An incompressible solid's cells are, within a step, a fluid of density ρ_s and viscosity ν + μ_s δt/α (its
+    stress linearised with d = d* + δt/α u, seed eq. 28): L weights them by ρ_f/ρ_s (:func:`_laplace_form`), M
+    by ν/(ν + μ_s δt/α), refreshed when δt changes (``solid_mass``: the solid cells' pressure mass,
+    ``solid_stiffness``: μ_s ρ_f, so that μ_s δt/α = μ_s ρ_f/(ρ_f α/δt))."""
+
+    def __init__(self, owner, mass, laplace, nu, amg, comm, pinned, solid_mass=None, solid_stiffness=0.0):
+        super().__init__(laplace, nu, amg, comm)
         self.owner, self.pinned = owner, pinned
         self.z = laplace.createVecLeft()
+        self.diagonal = mass.getDiagonal()
+        self.solid_diagonal = solid_mass.getDiagonal() if solid_mass is not None else None
+        self.solid_stiffness = solid_stiffness
+        self.inverse, self.weighted_for = self.diagonal.duplicate(), None
+
+    def mass_inverse(self) -> PETSc.Vec:
+        """1/diag(M), the solid's cells weighted for the current δt."""
+        reaction = self.owner.reaction
+        if reaction != self.weighted_for:
+            self.diagonal.copy(self.inverse)
+            if self.solid_diagonal is not None:
+                weight = self.nu / (self.nu + self.solid_stiffness / reaction)
+                self.inverse.axpy(weight - 1.0, self.solid_diagonal)
+            self.inverse.reciprocal()
+            self.weighted_for = reaction
+        return self.inverse
 
     def apply(self, pc, x, y):
-        self.mass_ksp.solve(x, y)
+        y.pointwiseMult(self.mass_inverse(), x)
         y.scale(-self.nu)
         self.lap_ksp.solve(x, self.z)
         y.axpy(-self.owner.reaction, self.z)
@@ -282,7 +331,8 @@ def configure(owner, ksp, problem, amg: str, comm) -> None:
     pc.setFieldSplitType(PETSc.PC.CompositeType.SCHUR)
     pc.setFieldSplitSchurFactType(PETSc.PC.SchurFactType.FULL)
     nu = viscosity(problem)
-    mass = pressure_mass_matrix(problem).createSubMatrix(pressure, pressure)
+    order = pressure_order(problem.space, pressure)
+    mass = pressure_mass_matrix(problem, order)
     if owner.reaction is None and owner.convecting_velocity is None:
         mass.scale(-1.0 / nu)
     pc.setFieldSplitSchurPreType(PETSc.PC.SchurPreType.USER, mass)
@@ -300,16 +350,18 @@ def configure(owner, ksp, problem, amg: str, comm) -> None:
         schur_ksp.getPC().setType("jacobi")
     else:
         if owner.reaction is not None:
-            laplace = pressure_laplace_matrix(problem).createSubMatrix(pressure, pressure)
-            owner.schur_context = CahouetChabard(owner, mass, laplace, nu, amg, comm,
-                                                 _pinned_pressure(problem, pressure))
+            solid = incompressible_solid(problem)
+            solid_mass = pressure_mass_matrix(problem, order, 1.0 - problem.fluid_cells) if solid else None
+            owner.schur_context = CahouetChabard(
+                owner, mass, pressure_laplace_matrix(problem, order), nu, amg, comm,
+                _pinned_pressure(problem, pressure), solid_mass, solid[1] if solid else 0.0)
         else:
-            laplace = pressure_laplace_matrix(problem, _inflow).createSubMatrix(pressure, pressure)
             owner.schur_context = PressureConvectionDiffusion(
-                mass, laplace, convection_form(problem, owner.convecting_velocity), pressure, nu, amg, comm)
+                mass, pressure_laplace_matrix(problem, order, _inflow),
+                convection_form(problem, owner.convecting_velocity), order, nu, amg, comm)
             owner.schur_context.update()
         schur_pc = schur_ksp.getPC()
         schur_pc.setType("python")
         schur_pc.setPythonContext(owner.schur_context)
     schur_ksp.setFromOptions()
-    owner.preconditioner_objects = (primal, pressure, mass)  # alive as long as the solver
+    owner.preconditioner_objects = (primal, pressure, order, mass)  # alive as long as the solver

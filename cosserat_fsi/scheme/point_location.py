@@ -39,6 +39,11 @@ _NEIGHBOURS = weakref.WeakKeyDictionary()  # mesh -> cell neighbour table (the t
 _TREES = weakref.WeakKeyDictionary()  # mesh -> (coordinates, slack, padded tree): PointLocator.tree
 
 
+EVAL_POINTS = 1 << 16
+"""Points per pass of a search in the bounding-box tree and of dolfinx's Function.eval: their temporaries
+grow with the points (about 0.8 GB at 1.4 M points in 3D)."""
+
+
 class PointLocator:
     """Finds, for points in physical space, a local cell containing each (affine triangles or tetrahedra)."""
 
@@ -146,6 +151,11 @@ class PointLocator:
         if len(points) == 0:
             return cells
         compiled = COMPILED and self.tdim == 2  # the kernels are for triangles
+        if not compiled and len(points) > EVAL_POINTS:  # numpy's arrays (3D: ≈ 30 candidate cells a point)
+            for i in range(0, len(points), EVAL_POINTS):
+                part = slice(i, i + EVAL_POINTS)
+                cells[part] = self.locate(points[part], owned_only, None if hint is None else hint[part])
+            return cells
         if hint is not None and compiled:  # walk from the hint cell; the tree only where the walk fails
             cells = _kernels.walk(np.ascontiguousarray(points), np.ascontiguousarray(hint, dtype=np.int32),
                                   self.x0, self.Jinv_flat, self.neighbours, _TOL, self._limit(owned_only),
@@ -255,6 +265,13 @@ def _compiled_p2(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray
                               f.function_space.dofmap.index_map_bs)
 
 
+def function_eval(f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """dolfinx's ``f.eval`` at points in known local cells, (n, value_size), in passes of ``EVAL_POINTS``."""
+    parts = [f.eval(points[i:i + EVAL_POINTS], cells[i:i + EVAL_POINTS]).reshape(min(EVAL_POINTS, len(points) - i), -1)
+             for i in range(0, len(points), EVAL_POINTS)]
+    return np.concatenate(parts) if parts else np.zeros((0, _value_count(f)))
+
+
 def eval_at(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Values of ``f`` at points in known local cells, shape (n, value_size).
 
@@ -262,7 +279,7 @@ def eval_at(locator: PointLocator, f, points: np.ndarray, cells: np.ndarray) -> 
     here, vectorised (``p2_basis``) or compiled; anything else goes to dolfinx's Function.eval.
     """
     if len(points) == 0 or not is_p2(locator, f):
-        return f.eval(points, cells).reshape(len(points), -1)
+        return function_eval(f, points, cells)
     if COMPILED:
         return _compiled_p2(locator, f, points, cells)
     return combine(locator, f, p2_basis(*barycentric(locator, points, cells)), cells)

@@ -11,6 +11,10 @@ import numpy as np
 
 from .. import compat
 from ..errors import DivergenceError
+from . import _kernels
+
+PAIRS = 1 << 18
+"""Point–triangle pairs per numpy pass of ``_triangle_distance`` (its temporaries: about 100 bytes a pair)."""
 
 
 class WallGap:
@@ -38,7 +42,7 @@ class WallGap:
     def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distance of each point to the nearest wall segment (3D: wall triangle), and its index."""
         if self.segments.shape[1] == 3:
-            return _triangle_distance(points, self.segments)
+            return triangle_distance(points, self.segments)
         a, b = self.segments[:, 0], self.segments[:, 1]
         ab = b - a
         rel = points[:, None, :] - a[None]
@@ -82,14 +86,30 @@ def _facet_segments(mesh, facets: np.ndarray) -> np.ndarray:
     return mesh.geometry.x[vertex_node[ends], :2].copy()
 
 
-def _triangle_distance(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def triangle_distance(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance of each point (m, 3) to the nearest of the triangles (k, 3, 3), and its index: the distance
     to the triangle's plane where the point projects inside it, else to its nearest corner (exact for the
-    flat walls of a duct, where every point near a wall projects inside one of its triangles)."""
+    flat walls of a duct, where every point near a wall projects inside one of its triangles). Compiled, or
+    by numpy in passes of ``PAIRS`` point–triangle pairs: its memory does not grow with m k."""
     a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
     normal = np.cross(b - a, c - a)
     area2 = np.linalg.norm(normal, axis=1)
     normal = normal / area2[:, None]
+    if _kernels.ENABLED:
+        return _nearest_triangle(np.ascontiguousarray(points, dtype=np.float64),
+                                 np.ascontiguousarray(triangles, dtype=np.float64), normal, area2)
+    chunk = max(1, PAIRS // max(len(triangles), 1))
+    parts = [_triangle_distance(points[i:i + chunk], triangles, normal, area2)
+             for i in range(0, len(points), chunk)]
+    if not parts:
+        return np.zeros(0), np.zeros(0, dtype=np.int64)
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _triangle_distance(points, triangles, normal, area2) -> tuple[np.ndarray, np.ndarray]:
+    """``triangle_distance`` by numpy arrays of m × k (``normal``: the unit normals, ``area2``: twice the
+    areas)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
     rel = points[:, None, :] - a[None]  # (m, k, 3)
     height = np.einsum("mkj,kj->mk", rel, normal)
     foot = rel - height[..., None] * normal[None]
@@ -101,3 +121,34 @@ def _triangle_distance(points: np.ndarray, triangles: np.ndarray) -> tuple[np.nd
     dist = np.where(inside, np.abs(height), corner)
     nearest = dist.argmin(axis=1)
     return dist[np.arange(len(points)), nearest], nearest
+
+
+@_kernels.jit
+def _nearest_triangle(points, triangles, normal, area2):
+    """``_triangle_distance`` point by point (no m × k arrays)."""
+    m, k = points.shape[0], triangles.shape[0]
+    dist = np.full(m, np.inf)
+    nearest = np.zeros(m, dtype=np.int64)
+    for i in range(m):
+        for t in range(k):
+            ax, ay, az = triangles[t, 0, 0], triangles[t, 0, 1], triangles[t, 0, 2]
+            bx, by, bz = triangles[t, 1, 0] - ax, triangles[t, 1, 1] - ay, triangles[t, 1, 2] - az
+            cx, cy, cz = triangles[t, 2, 0] - ax, triangles[t, 2, 1] - ay, triangles[t, 2, 2] - az
+            nx, ny, nz = normal[t, 0], normal[t, 1], normal[t, 2]
+            rx, ry, rz = points[i, 0] - ax, points[i, 1] - ay, points[i, 2] - az
+            h = rx * nx + ry * ny + rz * nz
+            fx, fy, fz = rx - h * nx, ry - h * ny, rz - h * nz
+            l1 = ((fy * cz - fz * cy) * nx + (fz * cx - fx * cz) * ny + (fx * cy - fy * cx) * nz) / area2[t]
+            l2 = -((fy * bz - fz * by) * nx + (fz * bx - fx * bz) * ny + (fx * by - fy * bx) * nz) / area2[t]
+            if l1 >= 0 and l2 >= 0 and l1 + l2 <= 1:
+                d = abs(h)
+            else:
+                d = np.inf
+                for j in range(3):
+                    ex = points[i, 0] - triangles[t, j, 0]
+                    ey = points[i, 1] - triangles[t, j, 1]
+                    ez = points[i, 2] - triangles[t, j, 2]
+                    d = min(d, np.sqrt(ex * ex + ey * ey + ez * ez))
+            if d < dist[i]:
+                dist[i], nearest[i] = d, t
+    return dist, nearest
