@@ -194,6 +194,15 @@ def test_fsi_time_step_matches_mumps():
     assert counts["krylov_iterations"]["mean"] < (40 if resolved_amg("auto") == "hypre" else 100)
 
 
+def _incompressible_flag(level: int, solver: dict, t_end: float = 0.01):
+    """The 2D flag of FSI3 with the incompressible law (its pressure an unknown in the solid) from rest, the
+    fixed δt = 0.005 to ``t_end``."""
+    return load_scene("configs/turek_hron_fsi3.yaml", [
+        f"geometry.level={level}", "time.tolerance=null", f"time.t_end={t_end}",
+        "solid.law=mooney_rivlin_incompressible", "solid.lambda_s=null",
+        *[f"solver.{key}={value}" for key, value in solver.items()]])
+
+
 @pytest.mark.parametrize("amg", ["gamg", "hypre"])
 def test_an_incompressible_solid_keeps_the_iterations_flat(amg):
     """An incompressible solid's pressure is an unknown: the Cahouet–Chabard approximation takes its cells as
@@ -204,10 +213,7 @@ def test_an_incompressible_solid_keeps_the_iterations_flat(amg):
         pytest.skip("this PETSc has no hypre")
 
     def scene(level, solver):
-        return load_scene("configs/turek_hron_fsi3.yaml", [
-            f"geometry.level={level}", "time.tolerance=null", "time.t_end=0.03",
-            "solid.law=mooney_rivlin_incompressible", "solid.lambda_s=null",
-            *[f"solver.{key}={value}" for key, value in solver.items()]])
+        return _incompressible_flag(level, solver, t_end=0.03)
 
     comm = MPI.COMM_WORLD
     mesh = load_mesh(scene(0, {}), comm)
@@ -257,10 +263,11 @@ def _cavity(level: int, solver: dict) -> dict:
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("flow", [_channel, _cavity])
+@pytest.mark.parametrize("flow", [_channel, _cavity, _incompressible_flag])
 def test_iterations_do_not_depend_on_the_partition(flow):
     """The Cahouet–Chabard time step on 2 ranks needs (within 20 %) the iterations of 1 rank, and the same
-    solution: the block preconditioner is built from owned dofs only (2D-1 and the cavity, level 1)."""
+    solution: the block preconditioner is built from owned dofs only (2D-1, the cavity and the incompressible
+    flag, level 1)."""
     world = MPI.COMM_WORLD
     if world.size == 1:
         pytest.skip("needs mpirun -n 2")

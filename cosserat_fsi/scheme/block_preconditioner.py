@@ -107,7 +107,7 @@ def pressure_order(space, pressure_is) -> PETSc.IS:
     (``createSubMatrix``), is the pressure block of the mixed space's numbering."""
     Q, into_W = space.collapsed["pressure"]
     imap, bs = space.W.dofmap.index_map, space.W.dofmap.index_map_bs
-    into_W = np.asarray(into_W)
+    into_W = np.asarray(into_W).ravel()
     mine = np.asarray(pressure_is.getIndices()) - imap.local_range[0] * bs  # W-local, sorted
     by_W = np.argsort(into_W)
     local = by_W[np.searchsorted(into_W[by_W], mine)]  # the Q-local dof of each
