@@ -142,15 +142,17 @@ def test_auto_takes_the_measured_crossover(kind, unknowns, dim, steady, refactor
     assert (f"{unknowns:,} unknowns" in why) == (kind == "auto" and not steady)
 
 
-def test_auto_keeps_mumps_for_fsi_without_hypre():
-    """GAMG did not converge on FSI3 level 2: ``auto`` with ``amg: gamg`` keeps MUMPS for a scene with a solid
-    (and says so), and takes the iterative solver for a fluid."""
+def test_auto_takes_the_iterative_solver_for_3d_fsi_with_gamg():
+    """In 3D the FSI time step's iterations are flat with GAMG too (the 3D flag: 30.5 / 25.3 per solve on
+    levels 0 / 1 with the incompressible law, 38.3 / 34.0 with St Venant–Kirchhoff): ``auto`` with ``amg:
+    gamg`` takes the iterative solver past the crossover with a solid as without (GAMG's failure on FSI3 level
+    2 is a 2D case, where ``auto`` keeps MUMPS at every size)."""
     scene = validate_scene({"geometry": {"name": "square"}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "time": {"dt": 0.1, "t_end": 0.1, "scheme": "ale_bdf2"}, "solver": {"amg": "gamg"}})
     unknowns = AUTO_ITERATIVE_FROM["refactorised"]
-    kind, why = resolved_type(scene.solver, _Sized(unknowns, 3, solid=True))
-    assert kind == "direct" and "GAMG" in why
-    assert resolved_type(scene.solver, _Sized(unknowns, 3, solid=False))[0] == "iterative"
+    for solid in (True, False):
+        assert resolved_type(scene.solver, _Sized(unknowns, 3, solid=solid))[0] == "iterative"
+        assert resolved_type(scene.solver, _Sized(unknowns, 2, solid=solid))[0] == "direct"
 
 
 def test_mumps_options_reach_the_factorisation():

@@ -100,9 +100,6 @@ def resolved_type(config, problem, steady: bool = False, refactorised: bool = Tr
     kind = "refactorised" if refactorised else "kept"
     threshold = AUTO_ITERATIVE_FROM[kind]
     what = "a factorisation every step" if refactorised else "a kept factorisation"
-    if unknowns >= threshold and problem.model.solid and resolved_amg(config.amg) == "gamg":
-        return "direct", (f"solver.type auto: direct (MUMPS) ({unknowns:,} unknowns in 3D, but the AMG is GAMG, "
-                          f"which did not converge on FSI3 level 2; solver.amg hypre needs a PETSc with hypre)")
     if unknowns >= threshold:
         return "iterative", (f"solver.type auto: iterative ({unknowns:,} unknowns in 3D, at least {threshold:,} "
                              f"for {what})")
