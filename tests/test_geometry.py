@@ -202,6 +202,16 @@ def test_deterministic_and_cached(tmp_path, monkeypatch):
     assert geometry.build_msh(_geo("turek_hron", 0, None), tmp_path / "a") == a
 
 
+def test_another_gmsh_builds_its_own_mesh(tmp_path, monkeypatch):
+    """gmsh 4.8 (Debian) and 4.15 (the wheel) mesh the same geometry differently: the cache key holds the gmsh
+    version, so two stacks sharing a cache never read each other's mesh (a run's numbers would depend on
+    which stack meshed first)."""
+    first = geometry.build_msh(_geo("channel", 0, None), tmp_path)
+    monkeypatch.setattr(geometry, "gmsh_version", lambda: "0.0.0-another")
+    other = geometry.build_msh(_geo("channel", 0, None), tmp_path)
+    assert other != first and other.exists() and first.exists()
+
+
 @pytest.mark.parametrize("damage", ["truncated", "garbage", "no_stamp"])
 def test_damaged_cached_mesh_is_rebuilt(tmp_path, damage):
     """A cached .msh that was truncated, overwritten or has no stamp is rebuilt, never read."""

@@ -22,6 +22,7 @@ and cube top, y = length), clamp 7 (flag: left edge x = 0).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -48,6 +49,21 @@ from .turek_hron import TurekHron
 from .turek_hron_3d import TurekHron3D
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
+
+
+@functools.cache
+def gmsh_version() -> str:
+    """The gmsh that builds the meshes: part of the cache key, since two gmsh versions mesh the same geometry
+    differently (4.8 and 4.15 do), and two stacks may share a cache."""
+    import importlib.metadata
+
+    try:
+        return importlib.metadata.version("gmsh")
+    except importlib.metadata.PackageNotFoundError:  # Debian's python3-gmsh has no package metadata
+        import gmsh
+
+        return gmsh.__version__
+
 Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube | Duct
                      | SchaeferTurek3D | TurekHron3D,
                      Field(discriminator="name")]
@@ -121,7 +137,8 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     """
     name, level, full = geometry.name, geometry.level, geometry.msh_params()
     keyed = {k: v for k, v in full.items() if not (name == "file" and k == "path")}  # a file: by content
-    key = json.dumps({"name": name, "level": level, "params": keyed, "version": BUILDER_VERSION}, sort_keys=True)
+    key = json.dumps({"name": name, "level": level, "params": keyed, "version": BUILDER_VERSION,
+                      "gmsh": gmsh_version()}, sort_keys=True)
     cache = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = cache / f"{name}-L{level}-{hashlib.sha1(key.encode()).hexdigest()[:10]}.msh"
     stamp = path.with_suffix(".sha256")
