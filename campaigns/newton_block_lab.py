@@ -13,11 +13,11 @@ the opts go to ``solver.petsc_options`` of ``solver.type: iterative`` (FGMRES to
 iterations); ``"schur": "mass"`` drops the convection from the Schur approximation; ``"pmat": "picard"`` builds
 the preconditioner on the Picard (Oseen) operator, the Jacobian without its reaction term (∇w)δu. With
 ``--block`` only the velocity block is solved, by GMRES(200) to rtol 1e-8, with ``"pc"`` (default hypre) and
-the opts under the prefix ``lab_``. Prints one line per (state, variant): iterations, seconds, outcome. With ``--mumps-estimate``
-MUMPS analyses the Jacobian (the ordering and symbolic factorisation of the code's direct solver, no numerical
-factorisation: it is stopped by a 1 MB working-memory limit) and prints its estimates: the factorisation's
-memory (INFOG(16): the largest rank, INFOG(17): all ranks, in MB), the factors' entries (INFOG(3)) and the
-elimination's flops (RINFOG(1)): what MUMPS would need at a size that does not fit.
+the opts under the prefix ``lab_``. Prints one line per (state, variant): iterations, seconds, outcome. With
+``--mumps-estimate`` MUMPS analyses the Jacobian (the ordering and symbolic factorisation of the code's direct
+solver, no numerical factorisation: it is stopped by a 1 MB working-memory limit) and prints its estimates: the
+factorisation's memory (INFOG(16): the largest rank, INFOG(17): all ranks, in MB), the factors' entries
+(INFOG(3)) and the elimination's flops (RINFOG(1)): what MUMPS would need at a size that does not fit.
 """
 
 from __future__ import annotations
