@@ -54,15 +54,20 @@ BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of
 @functools.cache
 def gmsh_version() -> str:
     """The gmsh that builds the meshes: part of the cache key, since two gmsh versions mesh the same geometry
-    differently (4.8 and 4.15 do), and two stacks may share a cache."""
-    import importlib.metadata
+    differently (4.8 and 4.15 do), and two stacks may share a cache. Read from its Python module's source, not
+    imported: importing gmsh resets SIGINT to the default action (a Ctrl-C would then kill the run unhandled);
+    gmsh itself runs in a child process."""
+    import importlib.util
+    import re
 
+    spec = importlib.util.find_spec("gmsh")
     try:
-        return importlib.metadata.version("gmsh")
-    except importlib.metadata.PackageNotFoundError:  # Debian's python3-gmsh has no package metadata
-        import gmsh
+        source = pathlib.Path(spec.origin).read_text(errors="replace") if spec and spec.origin else ""
+    except OSError:
+        source = ""
+    found = re.search(r'GMSH_API_VERSION\s*=\s*"([^"]+)"', source)
+    return found.group(1) if found else "unknown"
 
-        return gmsh.__version__
 
 Geometry = Annotated[TurekHron | SchaeferTurek | Channel | Square | Flag | Box | FileGeometry | Cube | Duct
                      | SchaeferTurek3D | TurekHron3D,
