@@ -207,9 +207,12 @@ class _PressureSchur:
     """A Schur approximation from the pressure mass M_p (by its diagonal) and Laplacian A_p (by one AMG cycle),
     as a petsc4py ``python`` PC (``apply`` in the subclasses)."""
 
-    def __init__(self, laplace, nu, amg, comm):
+    def __init__(self, mass, laplace, nu, amg, comm):
         self.nu = nu
         self.lap_ksp = _inner_solver(laplace, amg, comm)
+        self.diagonal = mass.getDiagonal()
+        self.inverse = self.diagonal.copy()
+        self.inverse.reciprocal()  # 1/diag(M_p): M_p⁻¹ by its diagonal (Jacobi)
 
     def setUp(self, pc):
         pass
@@ -218,12 +221,11 @@ class _PressureSchur:
 class PressureConvectionDiffusion(_PressureSchur):
     """S⁻¹ ≈ −M_p⁻¹ (ν I + K_p A_p⁻¹) (the pressure convection–diffusion approximation in the form of
     Olshanskii & Vassilevski 2007: the Stokes term ν M_p⁻¹ kept apart) for the Oseen operator of a steady
-    Newton step, as a petsc4py ``python`` PC; A_p with p = 0 on the inflow, by one AMG cycle; M_p⁻¹ by Jacobi;
+    Newton step, as a petsc4py ``python`` PC; A_p with p = 0 on the inflow, by one AMG cycle; M_p⁻¹ by its diagonal;
     K_p reassembled with each Newton iterate (:meth:`update`). With ρα/δt M_p in K_p it is Cahouet–Chabard."""
 
     def __init__(self, mass, laplace, kp_form, order, nu, amg, comm):
-        super().__init__(laplace, nu, amg, comm)
-        self.mass_ksp = _inner_solver(mass, "jacobi", comm)
+        super().__init__(mass, laplace, nu, amg, comm)
         self.kp_form, self.order = kp_form, order
         self.full = self.Kp = None
         self.t, self.s = mass.createVecLeft(), mass.createVecLeft()
@@ -244,7 +246,7 @@ class PressureConvectionDiffusion(_PressureSchur):
         self.lap_ksp.solve(x, self.t)
         self.Kp.mult(self.t, self.s)
         self.s.axpy(self.nu, x)
-        self.mass_ksp.solve(self.s, y)
+        y.pointwiseMult(self.inverse, self.s)
         y.scale(-1.0)
 
     def view(self, pc, viewer):
@@ -273,22 +275,20 @@ class CahouetChabard(_PressureSchur):
     ``solid_stiffness``: μ_s ρ_f, so that μ_s δt/α = μ_s ρ_f/(ρ_f α/δt))."""
 
     def __init__(self, owner, mass, laplace, nu, amg, comm, pinned, solid_mass=None, solid_stiffness=0.0):
-        super().__init__(laplace, nu, amg, comm)
+        super().__init__(mass, laplace, nu, amg, comm)
         self.owner, self.pinned = owner, pinned
         self.z = laplace.createVecLeft()
-        self.diagonal = mass.getDiagonal()
         self.solid_diagonal = solid_mass.getDiagonal() if solid_mass is not None else None
         self.solid_stiffness = solid_stiffness
-        self.inverse, self.weighted_for = self.diagonal.duplicate(), None
+        self.weighted_for = None  # the ρα/δt the solid's weights were computed for
 
     def mass_inverse(self) -> PETSc.Vec:
-        """1/diag(M), the solid's cells weighted for the current δt."""
+        """1/diag(M), an incompressible solid's cells weighted for the current δt."""
         reaction = self.owner.reaction
-        if reaction != self.weighted_for:
+        if self.solid_diagonal is not None and reaction != self.weighted_for:
             self.diagonal.copy(self.inverse)
-            if self.solid_diagonal is not None:
-                weight = self.nu / (self.nu + self.solid_stiffness / reaction)
-                self.inverse.axpy(weight - 1.0, self.solid_diagonal)
+            weight = self.nu / (self.nu + self.solid_stiffness / reaction)
+            self.inverse.axpy(weight - 1.0, self.solid_diagonal)
             self.inverse.reciprocal()
             self.weighted_for = reaction
         return self.inverse
