@@ -7,7 +7,8 @@ algebraic multigrid cycle, the Schur complement S = −B K⁻¹ Bᵀ by an appro
   enter as a fluid of density ρ_s and viscosity ν + μ_s δt/α; a compressible solid's pressure is no unknown
   of the flow: L carries its mass there, and the pinned pressure dofs (their Dirichlet rows) are the identity;
 - a steady Newton step (``convecting_velocity`` known): the pressure convection–diffusion approximation
-  −M⁻¹(ν I + K_p L⁻¹), K_p the pressure convection, L with p = 0 on the inflow;
+  −(ν I + L⁻¹K_p)M⁻¹ (scheme/oseen_preconditioner.py), the velocity block's AMG built on the Jacobian with
+  a streamline diffusion (the preconditioning matrix the Newton solver assembles);
 - otherwise: the scaled pressure mass −M/(μ + μ_r) with Jacobi (spectrally equivalent to S for Stokes-like K).
 
 Nothing is factorised: the memory grows linearly with the dofs. Every sub-solver reads PETSc's options
@@ -184,23 +185,9 @@ def _open(kind: str) -> bool:
     return kind not in WALL_TYPES
 
 
-def _inflow(kind: str) -> bool:
-    """A boundary with a prescribed velocity (the inflow, or a moving wall): PCD's p = 0."""
-    return kind == "velocity"
-
-
 def pressure_laplace_matrix(problem, order: PETSc.IS, dirichlet=_open) -> PETSc.Mat:
     """The Schur approximations' pressure Laplacian A_p (:func:`_laplace_form`)."""
     return _pressure_matrix(problem, lambda p, q, dx: _laplace_form(problem, p, q, dx, dirichlet), order)
-
-
-def convection_form(problem, velocity):
-    """K_p = ρ (w·∇p, p̃): the pressure convection by ``velocity`` (the Newton iterate's), compiled."""
-    import ufl
-
-    Q = problem.space.space("pressure")
-    p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
-    return compat.form(problem.rho * ufl.dot(velocity, ufl.grad(p)) * q * ufl.dx(domain=problem.mesh))
 
 
 class _PressureSchur:
@@ -216,41 +203,6 @@ class _PressureSchur:
 
     def setUp(self, pc):
         pass
-
-
-class PressureConvectionDiffusion(_PressureSchur):
-    """S⁻¹ ≈ −M_p⁻¹ (ν I + K_p A_p⁻¹) (the pressure convection–diffusion approximation in the form of
-    Olshanskii & Vassilevski 2007: the Stokes term ν M_p⁻¹ kept apart) for the Oseen operator of a steady
-    Newton step, as a petsc4py ``python`` PC; A_p with p = 0 on the inflow, by one AMG cycle; M_p⁻¹ by its diagonal;
-    K_p reassembled with each Newton iterate (:meth:`update`). With ρα/δt M_p in K_p it is Cahouet–Chabard."""
-
-    def __init__(self, mass, laplace, kp_form, order, nu, amg, comm):
-        super().__init__(mass, laplace, nu, amg, comm)
-        self.kp_form, self.order = kp_form, order
-        self.full = self.Kp = None
-        self.t, self.s = mass.createVecLeft(), mass.createVecLeft()
-
-    def update(self):
-        """K_p of the current iterate."""
-        import dolfinx.fem.petsc as fem_petsc
-
-        if self.full is None:
-            self.full = fem_petsc.assemble_matrix(self.kp_form)
-        else:
-            self.full.zeroEntries()
-            fem_petsc.assemble_matrix(self.full, self.kp_form)
-        self.full.assemble()
-        self.Kp = self.full.createSubMatrix(self.order, self.order, submat=self.Kp)
-
-    def apply(self, pc, x, y):
-        self.lap_ksp.solve(x, self.t)
-        self.Kp.mult(self.t, self.s)
-        self.s.axpy(self.nu, x)
-        y.pointwiseMult(self.inverse, self.s)
-        y.scale(-1.0)
-
-    def view(self, pc, viewer):
-        viewer.printfASCII(f"pressure convection-diffusion: -M_p^-1 (nu I + K_p A_p^-1), nu = {self.nu:g}\n")
 
 
 def _inner_solver(A, pc_type, comm) -> PETSc.KSP:
@@ -356,9 +308,10 @@ def configure(owner, ksp, problem, amg: str, comm) -> None:
                 owner, mass, pressure_laplace_matrix(problem, order), nu, amg, comm,
                 _pinned_pressure(problem, pressure), solid_mass, solid[1] if solid else 0.0)
         else:
-            owner.schur_context = PressureConvectionDiffusion(
-                mass, pressure_laplace_matrix(problem, order, _inflow),
-                convection_form(problem, owner.convecting_velocity), order, nu, amg, comm)
+            from .oseen_preconditioner import PressureConvectionDiffusion
+
+            owner.schur_context = PressureConvectionDiffusion(problem, mass, order, owner.convecting_velocity, nu,
+                                                              amg, comm)
             owner.schur_context.update()
         schur_pc = schur_ksp.getPC()
         schur_pc.setType("python")

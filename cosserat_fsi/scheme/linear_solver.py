@@ -37,6 +37,12 @@ MUMPS_ORDERING = {"amd": 0, "pord": 4, "metis": 5, "auto": 7}
 GAMG_THRESHOLD = 0.02
 """The velocity block's GAMG graph threshold: with PETSc's default (−1, no dropping) the iterations grow
 with the mesh (2D-1: 25 / 59.5 / 146.5 per solve on L1/L2/L3), with 0.02 they stay flat (18.5 / 21 / 23.5)."""
+STEADY_BOOMERAMG = {"fieldsplit_primal_pc_hypre_boomeramg_coarsen_type": "HMIS",
+                    "fieldsplit_primal_pc_hypre_boomeramg_interp_type": "ext+i",
+                    "fieldsplit_primal_pc_hypre_boomeramg_strong_threshold": 0.5}
+"""BoomerAMG on a steady Newton step's velocity block (hypre's recommendation for 3D): on 3D-1Z level 1 the same
+FGMRES iterations as the default Falgout coarsening (64 / 63 per solve), at half its time per solve; the
+default's hierarchy did not fit 24 GB on level 2 (docs/performance.md)."""
 RESIDUAL_SLACK, RESIDUAL_FLOOR = 10.0, 1e-8
 """An iterative solve is accepted when its true relative residual is at most max(RESIDUAL_SLACK x the Krylov
 rtol, RESIDUAL_FLOOR): FGMRES's own estimate drifts from the true residual by rounding, 1.1e-9 against an rtol of
@@ -46,9 +52,11 @@ AUTO_ITERATIVE_FROM = {"refactorised": 30_000, "kept": 500_000}
 refactorises every step (the convection in the matrix, or a moving mesh without reuse): the measured tie of a
 factorisation step with an iterative step (the 3D flag, 31,883 unknowns: 3.05 s against 3.19 s; MUMPS's step
 grows like N^1.5, the iterative one like N^1.07). Where MUMPS keeps its factorisation (a fixed mesh, or reuse):
-its memory (6.8 GB at 250k 3D unknowns, growing like N^1.1-1.2: 24 GB near 0.5-0.7 M). In 2D MUMPS is taken at every
-size: 2-2.5x faster per step at every measured size with the same growth, and a small 2D fill
-(docs/performance.md, "Direct or iterative")."""
+its memory (6.8 GB at 250k 3D unknowns, growing like N^1.1-1.2: 24 GB near 0.5-0.7 M); the same for a
+steady Newton solve in 3D (MUMPS refactorises each Newton step, but is 10x faster than the iterative solve on
+3D-1Z's level 0: memory decides), with BoomerAMG (GAMG does not converge a developed flow's velocity block).
+In 2D MUMPS is taken at every size: 2-2.5x faster per step at every measured size with the same growth, and a
+small 2D fill (docs/performance.md, "Direct or iterative")."""
 _PREFIXES = itertools.count()
 log = logging.getLogger("cosserat_fsi")
 _ITERATIVE: list[weakref.ref] = []  # the iterative solvers in the order of creation (their KSPs destroyed at exit)
@@ -91,10 +99,14 @@ def resolved_type(config, problem, steady: bool = False, refactorised: bool = Tr
         return config.type, f"solver.type: {config.type}"
     if problem is None:
         return "direct", "solver.type auto: direct (MUMPS) (no problem to size)"
-    if steady:
-        return "direct", ("solver.type auto: direct (MUMPS) for steady Newton (its iterative path, PCD, does not "
-                          "converge on every mesh: 2D-1 level 0, 3D-1Z; docs/performance.md)")
     unknowns, dim = problem.num_dofs()["total"], problem.mesh.geometry.dim
+    if steady:  # MUMPS is 10x faster on 3D-1Z level 0; the iterative path converges with BoomerAMG only
+        threshold = AUTO_ITERATIVE_FROM["kept"]
+        if dim == 3 and unknowns >= threshold and resolved_amg(config.amg) == "hypre":
+            return "iterative", (f"solver.type auto: iterative for steady Newton ({unknowns:,} unknowns in 3D, at "
+                                 f"least {threshold:,}: MUMPS's memory)")
+        return "direct", (f"solver.type auto: direct (MUMPS) for steady Newton ({unknowns:,} unknowns; iterative "
+                          f"from {threshold:,} in 3D with BoomerAMG)")
     if dim == 2:
         return "direct", f"solver.type auto: direct (MUMPS) ({unknowns:,} unknowns: MUMPS at every size in 2D)"
     kind = "refactorised" if refactorised else "kept"
@@ -167,12 +179,13 @@ class LinearSolver:
             ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
             pc.setReusePreconditioner(True)
 
-    def set_operator(self, A) -> None:
+    def set_operator(self, A, P=None) -> None:
         """The matrix changed (values, same pattern): a direct solver refactorises at the next solve, the
-        reusing one keeps its factorisation as the preconditioner."""
+        reusing one keeps its factorisation as the preconditioner. ``P``: the matrix the iterative solver's
+        preconditioner is built from (default A)."""
         self.A = A
         self._factorise = True
-        self.ksp.setOperators(A)
+        self.ksp.setOperators(A, P if P is not None else A)
         if self._configured and hasattr(self.schur_context, "update"):
             self.schur_context.update()  # PCD: F_p of the new iterate
         if not self._configured:
@@ -196,6 +209,8 @@ class LinearSolver:
         options = {}
         if self.iterative and self.amg == "gamg":
             options["fieldsplit_primal_pc_gamg_threshold"] = GAMG_THRESHOLD
+        if self.iterative and self.amg == "hypre" and self.convecting_velocity is not None:
+            options.update(STEADY_BOOMERAMG)
         options.update(self.config.petsc_options)
         database = PETSc.Options()
         for key, value in options.items():

@@ -49,9 +49,10 @@ class Newton:
 
     def __init__(self, residual, state, bcs, comm, *, compiled=None, jacobian=None, max_iterations: int = 25,
                  rtol: float = 1e-10, atol: float = 1e-300, max_halvings: int = 8, name: str = "newton",
-                 line_search: bool = False, stol: float = 1e-10, linear_solver=None):
+                 line_search: bool = False, stol: float = 1e-10, linear_solver=None, preconditioning=None):
         """``linear_solver``: a :class:`~.linear_solver.LinearSolver` for the linear steps (e.g. the
-        iterative one); default MUMPS on a KSP of its own."""
+        iterative one); default MUMPS on a KSP of its own. ``preconditioning``: a bilinear form added to the
+        Jacobian in the matrix the linear solver builds its preconditioner from (the Krylov solve keeps J)."""
         self.state, self.bcs, self.comm, self.name = state, bcs, comm, name
         self.linear_solver = linear_solver
         self.F = compiled if compiled is not None else compat.form(residual)
@@ -60,6 +61,12 @@ class Newton:
         self.line_search, self.stol = line_search, stol
         self.A = fem_petsc.assemble_matrix(self.J, bcs=bcs)
         self.A.assemble()
+        self.J_pc = self.P = None
+        if preconditioning is not None:
+            J = jacobian if jacobian is not None else ufl.derivative(residual, state)
+            self.J_pc = compat.form(J + preconditioning)
+            self.P = fem_petsc.assemble_matrix(self.J_pc, bcs=bcs)
+            self.P.assemble()
         self.b = compat.create_vector(self.F, state.function_space)
         self.delta = self.b.duplicate()
         self.x = compat.petsc_vec(state)
@@ -92,7 +99,11 @@ class Newton:
         fem_petsc.assemble_matrix(self.A, self.J, bcs=self.bcs)
         self.A.assemble()
         if self.linear_solver is not None:
-            self.linear_solver.set_operator(self.A)
+            if self.P is not None:
+                self.P.zeroEntries()
+                fem_petsc.assemble_matrix(self.P, self.J_pc, bcs=self.bcs)
+                self.P.assemble()
+            self.linear_solver.set_operator(self.A, self.P)
             return
         self.ksp.setOperators(self.A)
         if not self._mumps:
@@ -163,8 +174,12 @@ class Newton:
                 break
             small = self.delta.norm() * step <= self.stol * max(self.x.norm(), 1e-300)
             entry["step"] = step
-            log.info("%s%s it %d: |F| = %.3e (relative %.2e), step %.3g", self.name,
-                     "" if stage is None else f" [{stage:g}]", it + 1, trial, trial / ref, step)
+            krylov = ""
+            if self.linear_solver is not None and self.linear_solver.iterative:
+                entry["krylov_iterations"] = self.linear_solver.ksp.getIterationNumber()
+                krylov = f", {entry['krylov_iterations']} FGMRES iterations"
+            log.info("%s%s it %d: |F| = %.3e (relative %.2e), step %.3g%s", self.name,
+                     "" if stage is None else f" [{stage:g}]", it + 1, trial, trial / ref, step, krylov)
             norm = trial
             report.iterations += 1
             if small and step == 1.0:
@@ -178,13 +193,24 @@ class Newton:
         report.wall += time.perf_counter() - t0
         return report
 
-    def continuation(self, scale, values, initial: np.ndarray) -> NewtonReport:
+    def continuation(self, scale, values, initial: np.ndarray, stokes_first: bool = False) -> NewtonReport:
         """Newton at scale = 1 from ``initial``; if that fails, from ``initial`` again through scale 0 (the
-        Stokes solution of a flow, one linear solve) and then ``values``."""
+        Stokes solution of a flow, one linear solve) and then ``values``. ``stokes_first``: start Newton from
+        the Stokes solution (one linear solve; the relative residual stays that of ``initial``)."""
+        report = NewtonReport()
         scale.value = 1.0
-        report = self.solve(stage=1.0)
-        report.stages = [1.0]
-        reference = report.history[0]["residual"] if report.history else None
+        reference = None
+        if stokes_first:
+            self.apply_bcs()
+            reference = self.residual_norm()
+            scale.value, limit, self.max_iterations = 0.0, self.max_iterations, 1
+            self.solve(report, stage=0.0, reference=reference)
+            self.max_iterations, scale.value, report.message = limit, 1.0, ""
+            report.stages = [0.0]
+        self.solve(report, stage=1.0, reference=reference)
+        report.stages.append(1.0)
+        if reference is None:
+            reference = report.history[0]["residual"] if report.history else None
         if report.converged or list(values) in ([], [1.0]):
             return report
         log.info("%s: no convergence at full scale (%s); continuation through 0 (Stokes/unloaded), %s", self.name,

@@ -24,6 +24,7 @@ from ..errors import DivergenceError
 from .point_location import PointLocator
 from .linear_solver import LinearSolver, resolved_type
 from .newton import Newton, NewtonReport
+from .oseen_preconditioner import streamline_diffusion
 
 import dolfinx
 import ufl
@@ -90,13 +91,18 @@ class SteadyStepper:
         if self.newton is None:
             with self.timers("setup_newton"):
                 tm = self.scene.time
-                linear = None
+                linear = preconditioning = None
                 if self.ITERATIVE and self.linear_kind == "iterative":
                     linear = LinearSolver(self.scene.solver, self.comm, problem=self.problem, steady=True)
-                    linear.convecting_velocity = self.convecting_velocity()
+                    linear.convecting_velocity = w = self.convecting_velocity()
+                    if w is not None:  # the AMG's velocity block with a streamline diffusion
+                        W = self.space.W
+                        du, v = self.problem.split(ufl.TrialFunction(W))[0], self.problem.split(ufl.TestFunction(W))[0]
+                        preconditioning = streamline_diffusion(self.problem, w, du, v)
                 self.newton = Newton(self.residual, self.solution, self.boundary.bcs, self.comm,
                                      compiled=self.compiled, max_iterations=tm.newton_max_iterations,
-                                     rtol=tm.newton_rtol, name="newton", linear_solver=linear)
+                                     rtol=tm.newton_rtol, name="newton", linear_solver=linear,
+                                     preconditioning=preconditioning)
         return self.newton
 
     def advance(self, observe=None) -> None:
@@ -170,6 +176,7 @@ class SteadyFluid(SteadyStepper):
         newton.apply_bcs()
         initial = self.solution.x.array.copy()
         with self.timers("newton"):
-            report = newton.continuation(self.convection, self.scene.time.newton_continuation, initial)
+            report = newton.continuation(self.convection, self.scene.time.newton_continuation, initial,
+                                         stokes_first=newton.linear_solver is not None)
         self.state.from_mixed(self.solution, self.space)
         return report
