@@ -129,13 +129,43 @@ def _mumps_estimate(sim, A, comm) -> str:
             f"{total} MB in all; {entries:.3g} entries in the factors, {flops:.3g} flops")
 
 
-def main() -> None:
+def jacobians(config: str, level: int, sets: list[str], at: list[str], comm, cache: str | None = None):
+    """Yield (state name, the Simulation, its Newton, the Jacobian, the state's array) for each of ``at``
+    ("rest": the boundary data only; "solution": MUMPS's converged Newton, read from ``cache`` (a path with
+    the rank in it) if that exists, else solved and written there)."""
+    import os
+
     import dolfinx.fem.petsc as fem_petsc
+    import numpy as np
 
     from cosserat_fsi.app.runner import load_mesh
     from cosserat_fsi.config import load_scene
     from cosserat_fsi.simulation import Simulation
 
+    scene = load_scene(config, [f"geometry.level={level}", "solver.type=direct", *sets])
+    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
+    stepper = sim.stepper
+    newton = stepper._newton()
+    stepper.state.to_mixed(stepper.solution, stepper.space)
+    newton.apply_bcs()
+    for where in at:
+        if where == "solution":
+            if cache is not None and os.path.exists(cache):
+                stepper.solution.x.array[:] = np.load(cache)
+            else:
+                start = time.perf_counter()
+                sim.step()
+                if cache is not None:
+                    np.save(cache, stepper.solution.x.array)
+                if comm.rank == 0:
+                    print(f"MUMPS Newton: {time.perf_counter() - start:.1f} s", flush=True)
+        newton.A.zeroEntries()
+        fem_petsc.assemble_matrix(newton.A, newton.J, bcs=newton.bcs)
+        newton.A.assemble()
+        yield where, sim, newton, newton.A.copy(), stepper.solution.x.array.copy()
+
+
+def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("config")
     parser.add_argument("level", type=int)
@@ -146,22 +176,7 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[])
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    scene = load_scene(args.config, [f"geometry.level={args.level}", "solver.type=direct", *args.set])
-    sim = Simulation(scene, *load_mesh(scene, comm)[:3], comm)
-    stepper = sim.stepper
-    newton = stepper._newton()
-    stepper.state.to_mixed(stepper.solution, stepper.space)
-    newton.apply_bcs()
-    for where in args.at:
-        if where == "solution":
-            start = time.perf_counter()
-            sim.step()
-            if comm.rank == 0:
-                print(f"MUMPS Newton: {time.perf_counter() - start:.1f} s", flush=True)
-        newton.A.zeroEntries()
-        fem_petsc.assemble_matrix(newton.A, newton.J, bcs=newton.bcs)
-        newton.A.assemble()
-        A, state = newton.A.copy(), stepper.solution.x.array.copy()
+    for where, sim, newton, A, state in jacobians(args.config, args.level, args.set, args.at, comm):
         if args.mumps_estimate:
             start = time.perf_counter()
             line = _mumps_estimate(sim, A, comm)
