@@ -56,6 +56,11 @@ def sd_matrix(sim, bcs, scale=1.0, picard=False, A=None):
     return P
 
 
+def _inflow(kind: str) -> bool:
+    """BRM1's p = 0: the boundaries with a prescribed velocity."""
+    return kind == "velocity"
+
+
 class LabPCD:
     """The variant's Schur approximation, a petsc4py python PC."""
 
@@ -68,7 +73,7 @@ class LabPCD:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=problem.facet_tags)
         w = sim.stepper.convecting_velocity()
         M = bp.pressure_mass_matrix(problem, order)
-        dirichlet = bp._inflow if kind == "brm1" else bp._open
+        dirichlet = _inflow if kind == "brm1" else bp._open
         L = bp.pressure_laplace_matrix(problem, order, dirichlet)
         n = ufl.FacetNormal(mesh)
         p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)

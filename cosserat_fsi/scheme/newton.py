@@ -56,15 +56,15 @@ class Newton:
         self.state, self.bcs, self.comm, self.name = state, bcs, comm, name
         self.linear_solver = linear_solver
         self.F = compiled if compiled is not None else compat.form(residual)
-        self.J = compat.form(jacobian if jacobian is not None else ufl.derivative(residual, state))
+        jacobian = jacobian if jacobian is not None else ufl.derivative(residual, state)
+        self.J = compat.form(jacobian)
         self.max_iterations, self.rtol, self.atol, self.max_halvings = max_iterations, rtol, atol, max_halvings
         self.line_search, self.stol = line_search, stol
         self.A = fem_petsc.assemble_matrix(self.J, bcs=bcs)
         self.A.assemble()
         self.J_pc = self.P = None
         if preconditioning is not None:
-            J = jacobian if jacobian is not None else ufl.derivative(residual, state)
-            self.J_pc = compat.form(J + preconditioning)
+            self.J_pc = compat.form(jacobian + preconditioning)
             self.P = fem_petsc.assemble_matrix(self.J_pc, bcs=bcs)
             self.P.assemble()
         self.b = compat.create_vector(self.F, state.function_space)
