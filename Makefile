@@ -30,7 +30,7 @@ APT_PACKAGES := python3-dolfinx-real python3-gmsh python3-h5py python3-yaml pyth
                 python3-matplotlib python3-pip libopenblas0-pthread openmpi-bin python3-paraview
 SYSTEM_PYTHON := /usr/bin/python3
 VENV := .venv
-# numba (compiled characteristics, scheme/_kernels.py) from PyPI, pinned: 0.68.1 runs on Debian's numpy 1.24
+# numba (compiled characteristics, points/_kernels.py) from PyPI, pinned: 0.68.1 runs on Debian's numpy 1.24
 # (its floor is 1.22), so pip leaves /usr/lib's numpy alone; a later numba with a higher numpy floor would
 # pull a second numpy into the venv that shadows the one dolfinx 0.5.2 was built against (checked below).
 # Debian's python3-numba 0.56.4 works too, but drags in scipy and compiles differently from the latest stack.

@@ -1,4 +1,4 @@
-"""Diagnosis of the adaptive step's error estimate (scheme/time_control.py), for campaigns/adaptive_ladder.py.
+"""Diagnosis of the adaptive step's error estimate (time_schemes/time_control.py), for campaigns/adaptive_ladder.py.
 
 ``diagnose``: where one step's estimate from a checkpoint lives: the regions of the channel, other floors, and
 each component weighted by its own magnitude (the estimate's first weighting, which let the wake's zero

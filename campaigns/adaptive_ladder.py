@@ -3,7 +3,7 @@
 Each case is `cosserat-fsi run CONFIG --set ...` into ``<runs>/<scene>-<case>`` (a scene's fixed-δt run as
 shipped, and one run per tolerance, everything else as shipped); a case whose summary.json says it
 completed at its t_end is not run again. The run goes through this script's ``--one`` mode, which counts
-the controller's attempts (scheme/time_control.py: ``TimeControl.judge``) into ``attempts.csv`` beside the
+the controller's attempts (time_schemes/time_control.py: ``TimeControl.judge``) into ``attempts.csv`` beside the
 run (t, δt, scaled error E, accepted): summary.json has no rejection count. The table gives, per case:
 wall time, accepted and rejected steps, the δt range over the developed flow (after the inflow ramp) and
 the benchmark's errors (summary.json "benchmark": amplitude, mean, frequency of the scene's observable);
@@ -82,7 +82,7 @@ def run_one(out: str, config: str, sets: list[str], restart: bool = False) -> in
     """The ``--one`` mode: the CLI's run, with every attempt of the step controller logged to attempts.csv
     (``restart``: continue ``out``'s checkpoint)."""
     from cosserat_fsi.app import cli
-    from cosserat_fsi.scheme import time_control
+    from cosserat_fsi.time_schemes import time_control
 
     path = Path(out) / "attempts.csv"
     rows: list = []

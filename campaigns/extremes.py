@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from cosserat_fsi.app import cases as app_cases
+from pinned_law import FSI3_VOLUME_CORRECTION, INCOMPRESSIBLE
 
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
@@ -30,7 +31,7 @@ BASE = {"geometry.level": 0, "time.dt": 0.005, "time.t_end": 2.0, "inflow.ramp_t
         # the seed's scheme, as when docs/extremes.md was written (FSI3 ships ale_bdf2)
         "time.scheme": "characteristics1",
         # and its law (the shipped scene carries the benchmark's St Venant–Kirchhoff solid)
-        "solid.law": "mooney_rivlin_incompressible", "solid.lambda_s": None, "solid.volume_correction_time": 0.002}
+        **INCOMPRESSIBLE, **FSI3_VOLUME_CORRECTION}
 MICRO = {"micropolar.lambda1": 1.0e-4, "micropolar.inertia": 1.0e-4}
 # large deformations: the shipped scene files themselves (L1, BDF2, δt 0.002, remeshing at
 # q < 0.35), run to their end on 2 MPI ranks (their serial runs are in docs/performance.md)

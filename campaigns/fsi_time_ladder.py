@@ -30,13 +30,13 @@ import numpy as np
 import yaml
 
 from cosserat_fsi.analysis import periodic_analysis
+from cosserat_fsi.app.cases import override
 from cosserat_fsi.io import read_timeseries
+from pinned_law import FSI3_VOLUME_CORRECTION, INCOMPRESSIBLE
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = {"uy_A": (0.03438, 5.3), "lift": (437.81, 4.3956)}
-# the incompressible law these ladders measured (the shipped FSI3 scene carries the benchmark's St Venant–Kirchhoff)
-MR = {"solid.law": "mooney_rivlin_incompressible", "solid.lambda_s": "null", "solid.volume_correction_time": 0.002,
-      "time.tolerance": "null"}  # and the ladders' fixed steps
+MR = {**INCOMPRESSIBLE, **FSI3_VOLUME_CORRECTION, "time.tolerance": None}  # the law they measured; fixed steps
 FSI3_MR = ("configs/turek_hron_fsi3.yaml", MR)
 FSI3_SEED = ("configs/turek_hron_fsi3.yaml", {**MR, "geometry.level": "seed", "time.scheme": "characteristics2"})
 FSI3_L1 = ("configs/turek_hron_fsi3.yaml", {**MR, "time.scheme": "characteristics2"})
@@ -80,9 +80,9 @@ LADDERS = {
 
 
 def oscillator_errors(rho_infinity: float, omega_dt: float) -> tuple[float, float]:
-    """Generalised-α (first-order form, scheme/generalized_alpha.py) on ẏ = iωy: (relative frequency error, amplitude
-    factor per period) at ω δt — the scheme's own phase error on an oscillation resolved by 2π/(ωδt) steps."""
-    from cosserat_fsi.scheme.generalized_alpha import generalized_alpha
+    """Generalised-α (time_schemes/generalized_alpha.py, first-order form) on ẏ = iωy at ω δt: (relative
+    frequency error, amplitude factor per period), the scheme's own phase error at 2π/(ωδt) steps a period."""
+    from cosserat_fsi.time_schemes.generalized_alpha import generalized_alpha
 
     alpha_m, alpha_f, gamma = generalized_alpha(rho_infinity)
     lam = 1j * omega_dt  # unknowns (y^{n+1}, δt ẏ^{n+1}) from (y^n, δt ẏ^n)
@@ -112,7 +112,7 @@ def run(case_id: str, config: str, base: dict, extra: dict, runs: Path) -> Path:
         if len(t) and t[-1] >= float(sets["time.t_end"]) - 1e-9:
             return out
     cmd = [sys.executable, "-m", "cosserat_fsi", "run", str(ROOT / config), "--out", str(out), "--no-progress",
-           "--overwrite"] + [a for k, v in sets.items() for a in ("--set", f"{k}={v}")]
+           "--overwrite"] + [a for k, v in sets.items() for a in ("--set", override(k, v))]
     subprocess.run(cmd, check=False)
     return out
 

@@ -10,7 +10,7 @@ fluid vertices follow the extension of each mesh motion, solved once per δ from
 formulation the runs use, so the result does not depend on the path). For δ = 0, step, …, max it records the
 minimum normalised cell quality 4√3·|K|/Σ|e|² and reports, per method: the δ at which it first drops below
 0.1 (and 0.2), the δ at which the run would stop (a cell below 1e-3 of its reference area, the check of
-scheme/mesh_motion.py) and where a cell inverts; plus the setup (assembly + factorisation) and the cost of one
+mesh/motion.py) and where a cell inverts; plus the setup (assembly + factorisation) and the cost of one
 extension (mult + solve with the kept factorisation).
 """
 
@@ -72,7 +72,7 @@ def sweep(level, options: dict, deltas: np.ndarray, comm) -> dict:
     from cosserat_fsi import compat
     from cosserat_fsi.app.runner import load_mesh
     from cosserat_fsi.config import validate_scene
-    from cosserat_fsi.scheme.mesh_motion import MeshMotion
+    from cosserat_fsi.mesh.motion import MeshMotion
 
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": level, "flag": "solid"},
                             "fluid": {"rho": 1.0, "mu": 1.0}, "solid": {"rho": 1.0, "mu_s": 1.0},

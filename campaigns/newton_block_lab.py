@@ -42,7 +42,7 @@ def _right_hand_side(A) -> PETSc.Vec:
 def _full(sim, A, state, variant, comm, P=None) -> tuple[int, str]:
     """FGMRES with the code's fieldsplit Schur preconditioner and the variant's options."""
     from cosserat_fsi.errors import DivergenceError
-    from cosserat_fsi.scheme.linear_solver import LinearSolver
+    from cosserat_fsi.solvers.linear_solver import LinearSolver
 
     stepper = sim.stepper
     config = sim.scene.solver.model_copy(update={"type": "iterative", "krylov_rtol": 1e-8, "max_iterations": 300,
@@ -86,7 +86,7 @@ def picard_matrix(sim, A, bcs) -> PETSc.Mat:
 
 def _block(sim, A, variant, comm, P=None) -> tuple[int, str]:
     """The velocity block alone by GMRES(200) with the variant's PC (built on ``P``'s block when given)."""
-    from cosserat_fsi.scheme.block_preconditioner import primal_index_set
+    from cosserat_fsi.solvers.block_preconditioner import primal_index_set
 
     primal = primal_index_set(sim.problem.space, comm)
     K = A.createSubMatrix(primal, primal)
@@ -110,9 +110,9 @@ def _block(sim, A, variant, comm, P=None) -> tuple[int, str]:
 
 
 def _mumps_estimate(sim, A, comm) -> str:
-    """MUMPS's analysis of A by the scene's direct solver (scheme/linear_solver.py: its controls), stopped
+    """MUMPS's analysis of A by the scene's direct solver (solvers/linear_solver.py: its controls), stopped
     before the numerical factorisation."""
-    from cosserat_fsi.scheme.linear_solver import LinearSolver
+    from cosserat_fsi.solvers.linear_solver import LinearSolver
 
     solver = LinearSolver(sim.scene.solver.model_copy(update={"type": "direct", "petsc_options": {}}), comm)
     solver.set_operator(A)

@@ -29,7 +29,7 @@ import dolfinx.fem.petsc as fem_petsc
 import ufl
 
 from cosserat_fsi import compat
-from cosserat_fsi.scheme import block_preconditioner as bp
+from cosserat_fsi.solvers import pressure_matrices as pm
 
 sys.path.insert(0, os.path.dirname(__file__))
 import newton_block_lab as lab  # noqa: E402
@@ -41,7 +41,7 @@ def sd_matrix(sim, bcs, scale=1.0, picard=False, A=None):
     W = problem.space.W
     du, v = problem.split(ufl.TrialFunction(W))[0], problem.split(ufl.TestFunction(W))[0]
     w = sim.stepper.convecting_velocity()
-    nu = bp.viscosity(problem) / float(problem.scene.fluid.rho)
+    nu = pm.viscosity(problem) / float(problem.scene.fluid.rho)
     h = ufl.CellDiameter(problem.mesh)
     wn = ufl.sqrt(ufl.dot(w, w) + 1e-30)
     pe = wn * h / (2 * nu)
@@ -72,9 +72,9 @@ class LabPCD:
         mesh = problem.mesh
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=problem.facet_tags)
         w = sim.stepper.convecting_velocity()
-        M = bp.pressure_mass_matrix(problem, order)
-        dirichlet = _inflow if kind == "brm1" else bp._open
-        L = bp.pressure_laplace_matrix(problem, order, dirichlet)
+        M = pm.pressure_mass_matrix(problem, order)
+        dirichlet = _inflow if kind == "brm1" else pm._open
+        L = pm.pressure_laplace_matrix(problem, order, dirichlet)
         n = ufl.FacetNormal(mesh)
         p, q = ufl.TrialFunction(Q), ufl.TestFunction(Q)
         kform = problem.rho * ufl.dot(w, ufl.grad(p)) * q * ufl.dx
@@ -125,7 +125,7 @@ class LabPCD:
 def run(sim, A, state, variant, comm, bcs):
     """FGMRES with the variant: (iterations, outcome)."""
     from cosserat_fsi.errors import DivergenceError
-    from cosserat_fsi.scheme.linear_solver import LinearSolver
+    from cosserat_fsi.solvers.linear_solver import LinearSolver
     stepper = sim.stepper
     config = sim.scene.solver.model_copy(update={"type": "iterative", "krylov_rtol": 1e-8,
                                                  "max_iterations": variant.get("max", 300),
@@ -143,7 +143,7 @@ def run(sim, A, state, variant, comm, bcs):
             solver.ksp.setOperators(A, P)
         if variant.get("pcd"):
             primal, pressure, order, mass = solver.preconditioner_objects
-            ctx = LabPCD(sim, sim.problem, order, bp.viscosity(sim.problem), variant, comm)
+            ctx = LabPCD(sim, sim.problem, order, pm.viscosity(sim.problem), variant, comm)
             solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC().setPythonContext(ctx)
             solver._lab = ctx
         solver.solve(lab._right_hand_side(A), y)

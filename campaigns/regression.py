@@ -24,6 +24,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from pinned_law import FSI3_VOLUME_CORRECTION, INCOMPRESSIBLE, as_set
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA_ROOT = ROOT / "tests" / "data" / "regression"
@@ -34,9 +35,9 @@ _FAST_FLOW = ["geometry.level=0", "time.dt=0.005", "time.t_end=0.1", "inflow.ram
 _HARMONIC = ["solid.mesh_motion.method=harmonic"]  # the records were made with the seed's mesh motion
 _CHARS = ["time.corrector_passes=null"]  # the characteristics, one solve a step (with the time.scheme that follows)
 # the incompressible law of the records (the shipped CSM and FSI scenes carry the benchmarks' compressible one)
-_INCOMPRESSIBLE = ["solid.law=mooney_rivlin_incompressible", "solid.lambda_s=null"]
+_INCOMPRESSIBLE = as_set(INCOMPRESSIBLE)
 # the FSI3 scene of the records, short and on level 0
-_FSI3 = _FAST_FLOW + _INCOMPRESSIBLE + ["solid.volume_correction_time=0.002"] + _HARMONIC
+_FSI3 = _FAST_FLOW + _INCOMPRESSIBLE + as_set(FSI3_VOLUME_CORRECTION) + _HARMONIC
 CASES = {
     "st2d1": ("configs/schaefer_turek_2d1.yaml",
               ["geometry.level=0", "time.scheme=characteristics1", "time.dt=0.01", "time.t_end=0.2",

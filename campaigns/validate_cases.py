@@ -13,6 +13,7 @@ from pathlib import Path
 
 from cosserat_fsi.app import cases as app_cases
 from cosserat_fsi.app.verdict import TOLERANCES
+from pinned_law import FSI3_VOLUME_CORRECTION, INCOMPRESSIBLE
 
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
@@ -80,10 +81,8 @@ CASES = [
          "alternate between 540 and −110 N)"),
 ]
 
-# The seed's incompressible law (stiffer in bending than the benchmarks' St Venant–Kirchhoff solid with ν = 0.4:
-# 4 μ_s against E/(1 − ν²) = 3.333 μ_s), pinned in the cases that measure it: the shipped CSM and FSI scenes carry
-# the benchmarks' own law.
-MR = {"solid.law": "mooney_rivlin_incompressible", "solid.lambda_s": None}
+# The seed's incompressible law (pinned_law.py), pinned in the cases that measure it.
+MR = INCOMPRESSIBLE
 MR_FLAG = {**MR, "geometry.clamp": "straight"}  # the flag alone as it was measured with that law
 CSM = {"ux_A": 0.10, "uy_A": 0.05}
 FSI1 = {"uy_A": 0.05, "drag": 0.05}
@@ -121,12 +120,12 @@ FSI_CASES = [
     Case("fsi3-seed-c2-dt0.002", "configs/turek_hron_fsi3.yaml",
          {**C2, "geometry.level": "seed", "time.dt": 0.002}, FSI3),
     Case("fsi3-L1-c2-dt0.002", "configs/turek_hron_fsi3.yaml", {**C2, "time.dt": 0.002}, FSI3),
-    Case("fsi3-L1-ale-dt0.005", "configs/turek_hron_fsi3.yaml", {**MR, **FIXED, "solid.volume_correction_time": 0.002},
+    Case("fsi3-L1-ale-dt0.005", "configs/turek_hron_fsi3.yaml", {**MR, **FIXED, **FSI3_VOLUME_CORRECTION},
          FSI3,
          "BDF2 with the convection relative to the moving mesh (time.scheme: ale_bdf2), δt = 0.005, L1, the "
          "incompressible law"),
     Case("fsi3-seed-ale-dt0.005", "configs/turek_hron_fsi3.yaml",
-         {**MR, **FIXED, "solid.volume_correction_time": 0.002, "geometry.level": "seed"}, FSI3,
+         {**MR, **FIXED, **FSI3_VOLUME_CORRECTION, "geometry.level": "seed"}, FSI3,
          "the same on the seed's mesh"),
     Case("fsi3-L1-svk-ale-dt0.005", "configs/turek_hron_fsi3.yaml", FIXED, SVK_FSI3,
          "the shipped scene at a fixed step: the benchmark's St Venant–Kirchhoff flag, ale_bdf2, δt = 0.005, L1"),
@@ -261,7 +260,7 @@ t = 30 on L1) took 106 s and missed c_D by +1.5 %. Wall times in the tables abov
 jobs on the 2 cores. 1 and 2 ranks give the same forces and tip displacements to the 11 digits of
 timeseries.csv (tests/test_steady.py, FSI1), on both stacks.
 
-Steady scenes (`time.scheme: steady`, cosserat_fsi/scheme/steady.py, steady_solid.py): Newton on the steady
+Steady scenes (`time.scheme: steady`, cosserat_fsi/time_schemes/steady.py, steady_solid.py): Newton on the steady
 residual (the time-continuous residual of seed eqs. 31-32 with the accelerations (u·∇)u and (u·∇)ω), MUMPS, from
 the Stokes iterate; continuation in the convection or the load when Newton from there fails (none of the
 shipped scenes needs it). CSM1/CSM2 with the incompressible law (rows `csm*-L1-steady`): static Newton on the

@@ -16,6 +16,11 @@ from pathlib import Path
 
 from .errors import InputError
 
+WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO, errno.EFBIG,
+                errno.ENOENT, errno.ENOTDIR, errno.EISDIR}
+"""The errnos of a write that failed for a reason of the file system (full, read-only, no permission, gone):
+an output error (exit 2), not an internal one."""
+
 
 def open_regular(path: str | os.PathLike, what: str = "file", prefix: str = ""):
     """``open(path, "rb")`` of a regular file; InputError ``<prefix><path>: ...`` for a FIFO, a device, a

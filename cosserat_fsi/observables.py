@@ -13,7 +13,7 @@ from . import compat
 from .physics import fluid
 from .physics.stress import body_traction, cauchy_stress
 from .exact import EXACT_BENCHMARKS
-from .scheme.point_location import probe
+from .points.location import probe
 from .physics import materials
 from .physics.solid import elastic_energy_density
 from .errors import InputError
@@ -23,7 +23,7 @@ import dolfinx
 import ufl
 
 # Schäfer–Turek pressure probes: front and back of the cylinder (shared/reference/benchmarks.yaml; 3D:
-# geometry/schaefer_turek_3d.py's a1, a2)
+# geometry/builtin/schaefer_turek_3d.py's a1, a2)
 DP_POINTS = np.array([[0.15, 0.2, 0.0], [0.25, 0.2, 0.0]])
 BODY = ("cylinder", "interface")
 POINT_A = {"turek_hron": (0.6, 0.2), "flag": None, "turek_hron_3d": None}  # flag: (length, thickness/2), from

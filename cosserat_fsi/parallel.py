@@ -26,7 +26,7 @@ from collections.abc import Callable
 
 from cosserat_fsi.errors import (DivergenceError, InputError, InternalError, Interrupted, OutputError,
                                  exit_code_of)
-from cosserat_fsi.io.runfolder import WRITE_ERRNOS
+from cosserat_fsi.files import WRITE_ERRNOS
 
 
 def _wire(exc: BaseException | None):

@@ -15,11 +15,11 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from .scheme.boundary import BoundaryConditions
-from .scheme.mesh_motion import MeshMotion, PrescribedMotion
-from .scheme.problem import Model, Problem
-from .scheme.schemes import scheme_class
-from .scheme.state import State
+from .problem.boundary import BoundaryConditions
+from .mesh.motion import MeshMotion, PrescribedMotion
+from .problem.model import Model, Problem
+from .time_schemes.schemes import scheme_class
+from .time_schemes.state import State
 from .timers import Timers
 
 Callback = Callable[["Simulation"], None]
@@ -57,7 +57,7 @@ class Simulation:
         self.state = self._new_state()
         self.state.set_initial(self.problem, exact)
         self.stepper = self._stepper()
-        # automatic remeshing (solid.mesh_motion.remesh; scheme/remesh.py): the remeshes so far, where their
+        # automatic remeshing (solid.mesh_motion.remesh; mesh/remesh.py): the remeshes so far, where their
         # meshes go (rank 0; the runner sets the run folder), what is told of each
         self.remeshes: list[dict] = []
         self.mesh_file: Path | None = None  # the .msh of the current mesh when it is a remeshed one
@@ -72,7 +72,7 @@ class Simulation:
                      adaptive=getattr(self.scene.time, "tolerance", None) is not None)
 
     def _stepper(self):
-        """The scene's time scheme (scheme/schemes.py), with its boundary conditions."""
+        """The scene's time scheme (time_schemes/schemes.py), with its boundary conditions."""
         boundary = BoundaryConditions(self.problem, self.comm, self.exact)
         return scheme_class(self.scene, self.problem.model).create(self.problem, self.state, boundary, self.motion,
                                                                    self.timers, self.comm)
@@ -103,7 +103,7 @@ class Simulation:
             self.remesh(f"minimum fluid cell quality {quality:.3g} < {settings.quality:g}")
 
     def remesh(self, reason: str = "requested") -> dict:
-        """A new fluid mesh around the current solid (scheme/remesh.py), every field and history level
+        """A new fluid mesh around the current solid (mesh/remesh.py), every field and history level
         carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
         Returns (and appends to ``remeshes``) the record: t, step, reason, the minimum quality of the fluid
         cells before/after, seconds."""
@@ -113,8 +113,8 @@ class Simulation:
         import time
 
         from . import compat
-        from .scheme.remesh import remesh_msh
-        from .scheme.transfer import interpolator
+        from .mesh.remesh import remesh_msh
+        from .mesh.transfer import interpolator
 
         start = time.perf_counter()
         before = self.motion.min_fluid_quality
@@ -153,7 +153,7 @@ class Simulation:
     def _node_sizes(self):
         """Target cell size at the local geometry nodes: the kept ``mesh_size`` (carried from the scene's mesh
         through every remesh, so the cell count does not drift), else the mean reference edge length."""
-        from .scheme.mesh_motion import _vertex_sizes
+        from .mesh.motion import _vertex_sizes
 
         m = self.motion
         if getattr(m, "mesh_size", None) is not None:
@@ -216,7 +216,7 @@ class Simulation:
 
     @property
     def time_control(self):
-        """The step size controller (scheme/time_control.py; None with a fixed step)."""
+        """The step size controller (time_schemes/time_control.py; None with a fixed step)."""
         return getattr(self.stepper, "control", None)
 
     def steps_to(self, t_end: float) -> int:

@@ -21,7 +21,7 @@ from cosserat_fsi.app.runner import load_mesh, run_scene
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.io import read_timeseries
 from cosserat_fsi.observables import Observables
-from cosserat_fsi.scheme import time_control
+from cosserat_fsi.time_schemes import time_control
 from cosserat_fsi.simulation import Simulation
 
 SCHEMES = ["characteristics2", "ale_bdf2", "generalized_alpha"]

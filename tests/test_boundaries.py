@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from cosserat_fsi.expressions import ExpressionError, parse
+from cosserat_fsi.config.expressions import ExpressionError, parse
 
 DATA = os.path.join(os.path.dirname(__file__), "data", "user_scene")
 
@@ -65,7 +65,7 @@ def _channel_scene(tmp_path, boundaries: str, time: str = "{scheme: steady}"):
 
 def _steady_velocity_at(scene, points):
     from cosserat_fsi.app.runner import load_mesh
-    from cosserat_fsi.scheme.point_location import probe
+    from cosserat_fsi.points.location import probe
     from cosserat_fsi.simulation import Simulation
 
     comm = MPI.COMM_WORLD
@@ -104,7 +104,7 @@ def test_micro_rotation_condition_per_boundary(tmp_path):
     on the top one, in the same run: ω vanishes at the bottom only; at the top it is ½ curl u = −½ ∂u/∂y."""
     from cosserat_fsi.app.runner import load_mesh
     from cosserat_fsi.config import load_scene
-    from cosserat_fsi.scheme.point_location import probe
+    from cosserat_fsi.points.location import probe
     from cosserat_fsi.simulation import Simulation
 
     path = tmp_path / "scene.yaml"

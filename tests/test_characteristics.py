@@ -6,10 +6,10 @@ from mpi4py import MPI
 
 from cosserat_fsi import compat
 from cosserat_fsi.geometry import SchaeferTurek, build_msh
-from cosserat_fsi.scheme import _kernels, point_location
-from cosserat_fsi.scheme.variable_step import BdfWeights
-from cosserat_fsi.scheme.back_tracking_nodes import BackTrackingNodes
-from cosserat_fsi.scheme.point_location import PointLocator, eval_at, evaluate, neighbour_table, probe
+from cosserat_fsi.points import _kernels, location
+from cosserat_fsi.time_schemes.variable_step import BdfWeights
+from cosserat_fsi.points.back_tracking_nodes import BackTrackingNodes
+from cosserat_fsi.points.location import PointLocator, eval_at, evaluate, neighbour_table, probe
 
 import dolfinx
 
@@ -47,7 +47,7 @@ def test_tree_shared_by_nearby_configurations(tmp_path):
     mesh = _mesh(tmp_path)
     locator = PointLocator(mesh)
     first = locator.tree
-    slack = point_location._TREES[mesh][1]
+    slack = location._TREES[mesh][1]
     X = mesh.geometry.x[:, :2].copy()
     rng = np.random.default_rng(1)
     points = np.zeros((400, 3))
@@ -58,9 +58,9 @@ def test_tree_shared_by_nearby_configurations(tmp_path):
         locator.update(X + wobble)
         assert (locator.tree is first) == shared
         cells = locator.locate(points)
-        lam = np.array([point_location.barycentric(locator, np.repeat(p[None], len(all_cells), 0), all_cells)
+        lam = np.array([location.barycentric(locator, np.repeat(p[None], len(all_cells), 0), all_cells)
                         for p in points])  # (points, 2, cells)
-        inside = np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1 - lam[:, 0] - lam[:, 1]) >= -point_location._TOL
+        inside = np.minimum(np.minimum(lam[:, 0], lam[:, 1]), 1 - lam[:, 0] - lam[:, 1]) >= -location._TOL
         found = cells >= 0
         assert found.sum() > 300
         assert np.array_equal(found, inside.any(axis=1))
@@ -101,7 +101,7 @@ def test_compiled_backtracking_equals_numpy(tmp_path, monkeypatch):
     fixed = np.array([[0.2, 0.2, 0.0], [1.0, 0.1, 0.0], [2.1, 0.4, 0.0], [0.2, 0.45, 0.0]])
 
     def run(compiled):
-        monkeypatch.setattr(point_location, "COMPILED", compiled)
+        monkeypatch.setattr(location, "COMPILED", compiled)
         loc = chars.locator
         return dict(cells=loc.locate(feet), nodes=loc.locate(chars.nodes()), hinted=loc.locate(feet, hint=hint),
                     owned=loc.locate(feet, owned_only=True, hint=hint),
@@ -155,7 +155,7 @@ def test_fused_bdf2_history_equals_numpy(monkeypatch, moving, ratio):
     monkeypatch.setattr(_kernels, "bdf2_quadrature", lambda *a: statuses.append(kernel(*a)[0]) or kernel(*a))
 
     def history(compiled):
-        monkeypatch.setattr(point_location, "COMPILED", compiled)
+        monkeypatch.setattr(location, "COMPILED", compiled)
         for f in (h.velocity, h.micro_rotation):
             f.x.array[:] = np.nan
         h.update(BdfWeights(2, ratio * stepper.dt, ratio), stepper.state, stepper.solve_displacement)
@@ -186,7 +186,7 @@ def test_feet_on_a_rotation(monkeypatch, compiled):
     from cosserat_fsi.config import validate_scene
     from cosserat_fsi.simulation import Simulation
 
-    monkeypatch.setattr(point_location, "COMPILED", compiled)
+    monkeypatch.setattr(location, "COMPILED", compiled)
     comm = MPI.COMM_WORLD
     scene = validate_scene({"geometry": {"name": "square", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.01},
                             "inflow": {"u_mean": 1.0}, "micropolar": {"mu_r": 0.1, "lambda1": 0.01},
@@ -238,7 +238,7 @@ def test_values_at_quadrature_nodes_compiled_equals_numpy(tmp_path, monkeypatch)
     for f in (u, p):
         values = {}
         for compiled in ([False, True] if _kernels.ENABLED else [False]):
-            monkeypatch.setattr(point_location, "COMPILED", compiled)
+            monkeypatch.setattr(location, "COMPILED", compiled)
             values[compiled] = chars.at_quadrature_nodes(f, 6)
         assert all(np.array_equal(values[False], v) for v in values.values())
         assert np.abs(values[False] - f.eval(x, cells).reshape(len(x), -1)).max() < 1e-12

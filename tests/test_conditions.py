@@ -13,7 +13,7 @@ import pytest
 from mpi4py import MPI
 
 from cosserat_fsi.errors import DivergenceError, InputError
-from cosserat_fsi.expressions import parse
+from cosserat_fsi.config.expressions import parse
 
 STRIP = Path(__file__).parent / "data" / "user_scene" / "strip.geo"
 MU, MU_R, LAMBDA1 = 1.0, 1.0, 0.5  # k = sqrt(4 μ μ_r / (λ₁ (μ + μ_r))) = 2
@@ -192,7 +192,7 @@ def test_refused_at_validation(tmp_path, boundaries, message):
 
 def test_steady_at_evaluates_the_data_there(run_cli, tmp_path):
     """min(t, 1)·p̂ with steady_at 0.5: half the pressure drop of t = 1, half the flow."""
-    from cosserat_fsi.scheme.steady import steady_time
+    from cosserat_fsi.problem.boundary import steady_time
 
     walls = "bottom: {type: no_slip, micro_rotation: zero}, top: {type: no_slip, micro_rotation: zero}"
     boundaries = "{inlet: {type: pressure, value: '4*min(t, 1)'}, outlet: {type: do_nothing}, " + walls + "}"

@@ -342,7 +342,7 @@ def test_mesh_motion_is_the_harmonic_extension_of_the_total_displacement():
     import dolfinx
 
     from cosserat_fsi import compat
-    from cosserat_fsi.scheme.mesh_motion import MeshMotion
+    from cosserat_fsi.mesh.motion import MeshMotion
 
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},
                             "fluid": {"rho": 1.0, "mu": 1.0}, "solid": {"rho": 1.0, "mu_s": 1.0},

@@ -9,7 +9,7 @@ import pytest
 
 from cosserat_fsi import errors, geometry
 from cosserat_fsi.config import validate_geometry
-from cosserat_fsi.geometry import turek_hron
+from cosserat_fsi.geometry.builtin import turek_hron
 
 
 def _geo(name, level=0, params=None):
@@ -236,7 +236,7 @@ def test_deterministic_new_geometries(tmp_path, monkeypatch, name, defaults, oth
     assert sorted(p.name for p in (tmp_path / "a").iterdir()) == [a.name, a.with_suffix(".sha256").name]
     assert a.read_text().startswith("$MeshFormat\n4.1 0 8\n")
     assert geometry.build_msh(_geo(name, 0, other), tmp_path / "a").name != a.name
-    monkeypatch.setattr(getattr(geometry, name), "build", lambda *args: pytest.fail("rebuilt a cached mesh"))
+    monkeypatch.setattr(geometry._MODULES[name], "build", lambda *args: pytest.fail("rebuilt a cached mesh"))
     assert geometry.build_msh(_geo(name, 0, defaults), tmp_path / "a") == a
 
 

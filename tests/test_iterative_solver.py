@@ -1,4 +1,4 @@
-"""``solver.type: iterative``: FGMRES with the fieldsplit Schur preconditioner of scheme/block_preconditioner.py
+"""``solver.type: iterative``: FGMRES with the fieldsplit Schur preconditioner of solvers/block_preconditioner.py
 (Cahouet–Chabard for a time step), its counts, and ``solver.petsc_options`` through PETSc's options database."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.config import load_scene, validate_scene
 from cosserat_fsi.config.loading import _apply_override
 from cosserat_fsi.errors import DivergenceError, InputError
-from cosserat_fsi.scheme.linear_solver import AUTO_ITERATIVE_FROM, resolved_amg, resolved_type
+from cosserat_fsi.solvers.linear_solver import AUTO_ITERATIVE_FROM, resolved_amg, resolved_type
 from cosserat_fsi.simulation import Simulation
 
 import dolfinx

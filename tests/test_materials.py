@@ -171,7 +171,7 @@ def test_energy_density_of_homogeneous_deformations(law):
 def _manufactured_error(law, n, comm=MPI.COMM_WORLD):
     """Relative L² error of the P2 solution of −div σ(d) = f on the unit square (current configuration,
     F⁻¹ = I − ∇d), d = d_exact on the boundary, f = −div σ(d_exact) in UFL, by Newton."""
-    from cosserat_fsi.scheme.newton import Newton
+    from cosserat_fsi.solvers.newton import Newton
 
     mesh = dolfinx.mesh.create_unit_square(comm, n, n)
     x = ufl.SpatialCoordinate(mesh)

@@ -28,7 +28,7 @@ SCENE = {"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"}, "fluid
 
 
 def _min_quality(options: dict, delta: float) -> float:
-    from cosserat_fsi.scheme.mesh_motion import MeshMotion
+    from cosserat_fsi.mesh.motion import MeshMotion
 
     comm = MPI.COMM_WORLD
     mesh, ct, _, _ = load_mesh(validate_scene(SCENE), comm)

@@ -11,7 +11,7 @@ import pytest
 from cosserat_fsi.exact import NP, UFL, MicropolarPoiseuille
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.stress import cauchy_stress
-from cosserat_fsi.scheme.point_location import probe
+from cosserat_fsi.points.location import probe
 from test_micropolar import _integral, _l2, _rates, _run, _scene
 
 import ufl

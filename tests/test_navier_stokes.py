@@ -15,7 +15,7 @@ from cosserat_fsi.config import validate_scene
 from cosserat_fsi.observables import Observables, schaefer_turek_coefficients
 from cosserat_fsi.references import reference_for
 from cosserat_fsi.app.runner import load_mesh
-from cosserat_fsi.scheme.point_location import probe
+from cosserat_fsi.points.location import probe
 from cosserat_fsi.simulation import Simulation
 
 import dolfinx

@@ -142,13 +142,13 @@ def _strip(rows: int, columns: int = 6) -> np.ndarray:
 @pytest.mark.parametrize("rows, across", [(1, 1), (2, 2), (3, 2), (4, 4), (5, 4)])
 def test_cells_across_a_strip(rows, across):
     """2·(largest vertex depth from the boundary), at least 1: never more than the strip's rows."""
-    from cosserat_fsi.mesh_report import _regions
+    from cosserat_fsi.mesh.report import _regions
 
     assert _regions(_strip(rows)) == [{"cells": 12 * rows, "across": across}]
 
 
 def test_two_solid_regions_are_counted_apart():
-    from cosserat_fsi.mesh_report import _regions
+    from cosserat_fsi.mesh.report import _regions
 
     far = _strip(1) + np.array([5.0, 0.0])  # a thin strip beside a thick one
     assert _regions(np.concatenate([_strip(4), far])) == [{"cells": 48, "across": 4}, {"cells": 12, "across": 1}]

@@ -144,7 +144,7 @@ def test_couette_with_a_slip_outer_circle_converges(tmp_path, viscous_form, boun
     A/2 + 2B = 1/2); symmetric μ r ∂(u_θ/r)/∂r = 0 gives the rigid rotation u_θ = r.
 
     The mesh's circles are polygons: with the facet normals the error fell only as O(h) (laplacian 6.3e-2,
-    3.7e-2, 1.9e-2); with the vertex-averaged normal (scheme/slip_normal.py) measured over h = 0.2, 0.1, 0.05:
+    3.7e-2, 1.9e-2); with the vertex-averaged normal (problem/slip_normal.py) measured over h = 0.2, 0.1, 0.05:
     laplacian 1.14e-2, 3.0e-3, 8.0e-4 (rate 1.9, the inner polygon's O(h²)), symmetric 3.7e-5, 1.5e-6,
     1.4e-7 (the rigid rotation is tangent to the averaged normal on every chord). u·n_h on the outer polygon
     (the chords' own normals) goes to 0 as h."""
@@ -199,8 +199,8 @@ def test_half_poiseuille_in_an_oblique_box_3d(viscous_form):
     """Stokes in a box turned about two axes: no-slip bottom, slip (Nitsche) on the top and both sides, the
     exact u = ½ η(2 − η) t̂ on inlet and outlet, μ = 1 and the force t̂ per volume: it is the solution (u·n = 0
     and zero tangential traction on the top and the sides), and it lies in P2: 1e-10."""
-    from cosserat_fsi.scheme.newton import Newton
-    from cosserat_fsi.scheme.spaces import mixed_space
+    from cosserat_fsi.solvers.newton import Newton
+    from cosserat_fsi.problem.spaces import mixed_space
 
     comm = MPI.COMM_WORLD
     mesh, tags, t, g = _oblique_box(comm)

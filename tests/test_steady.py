@@ -1,4 +1,5 @@
-"""Steady scenes by Newton (scheme/steady.py, steady_solid.py) and the closing verdict of a run (app/verdict.py)."""
+"""Steady scenes by Newton (time_schemes/steady.py, steady_solid.py) and the closing verdict of a run
+(app/verdict.py)."""
 
 from __future__ import annotations
 

@@ -19,7 +19,7 @@ from cosserat_fsi.config import validate_scene
 from cosserat_fsi.exact import NP, UFL, MicropolarPoiseuille
 from cosserat_fsi.observables import Observables
 from cosserat_fsi.physics.kinematics import spin
-from cosserat_fsi.scheme.point_location import probe
+from cosserat_fsi.points.location import probe
 from cosserat_fsi.simulation import Simulation
 
 import dolfinx

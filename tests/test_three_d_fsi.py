@@ -17,7 +17,7 @@ from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.io import read_timeseries
 from cosserat_fsi.observables import Observables
-from cosserat_fsi.scheme.mesh_motion import MeshMotion
+from cosserat_fsi.mesh.motion import MeshMotion
 from cosserat_fsi.simulation import Simulation
 
 import dolfinx

@@ -1,4 +1,4 @@
-"""The step size controller (``time.tolerance``, scheme/time_control.py) on its own: a fake stepper driven by
+"""The step size controller (``time.tolerance``, time_schemes/time_control.py) on its own: a fake stepper driven by
 TimeStep.advance with a scripted error, the judge's rules one by one, and Milne's estimate against the true
 local error of BDF2 on a scalar ODE. The adaptive FSI runs (restart, ranks, remesh) are in
 test_adaptive_runs.py."""
@@ -12,10 +12,10 @@ import pytest
 from mpi4py import MPI
 
 from cosserat_fsi.errors import DivergenceError
-from cosserat_fsi.scheme.state import StepSizes
-from cosserat_fsi.scheme.time_control import TimeControl
-from cosserat_fsi.scheme.time_step import TimeStep
-from cosserat_fsi.scheme.variable_step import BdfWeights, estimate_factor, predicted
+from cosserat_fsi.time_schemes.state import StepSizes
+from cosserat_fsi.time_schemes.time_control import TimeControl
+from cosserat_fsi.time_schemes.time_step import TimeStep
+from cosserat_fsi.time_schemes.variable_step import BdfWeights, estimate_factor, predicted
 
 
 def _time(**kwargs):

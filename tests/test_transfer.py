@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 from cosserat_fsi.app.runner import load_mesh
 from cosserat_fsi.config import validate_scene
-from cosserat_fsi.scheme.transfer import interpolator
+from cosserat_fsi.mesh.transfer import interpolator
 from cosserat_fsi.simulation import Simulation
 
 FIELDS = {"u_n": lambda x: np.vstack([np.full(x.shape[1], 1.5), np.full(x.shape[1], -0.25)]),

@@ -9,8 +9,8 @@ from mpi4py import MPI
 
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.app.runner import load_mesh
-from cosserat_fsi.scheme import variable_step
-from cosserat_fsi.scheme.variable_step import BdfWeights, estimate_factor, predicted
+from cosserat_fsi.time_schemes import variable_step
+from cosserat_fsi.time_schemes.variable_step import BdfWeights, estimate_factor, predicted
 from cosserat_fsi.simulation import Simulation
 
 PATTERN = np.array([1.0, 1.8, 0.6, 1.3, 0.7])  # step ratios 1.8, 0.33, 2.17, 0.54

@@ -1,4 +1,4 @@
-"""The solid's distance to the walls (scheme/wall_gap.py): the compiled and numpy paths agree, and the numpy
+"""The solid's distance to the walls (mesh/wall_gap.py): the compiled and numpy paths agree, and the numpy
 path's passes over the points do not change its result."""
 
 from __future__ import annotations
@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosserat_fsi.scheme import _kernels, wall_gap
+from cosserat_fsi.points import _kernels
+from cosserat_fsi.mesh import wall_gap
 
 
 def _walls_and_points(seed=3):

@@ -27,7 +27,7 @@ import traceback
 from pathlib import Path
 
 from ..errors import DivergenceError, InputError, InternalError, Interrupted, OutputError, exit_code_of
-from ..io.runfolder import WRITE_ERRNOS
+from ..files import WRITE_ERRNOS
 
 log = logging.getLogger("cosserat_fsi")
 _FORMAT = logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s")

@@ -29,7 +29,7 @@ from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.profiles import check_profiles, open_profiles, write_profiles
-from ..mesh_report import log_solid_resolution
+from ..mesh.report import log_solid_resolution
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share

@@ -46,7 +46,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import InputError
 from ..io.runfolder import atomic_write_text
-from ..safe_yaml import read_text_file, read_yaml_file
+from ..io.safe_yaml import read_text_file, read_yaml_file
 from . import cases
 
 MAX_RUNS = 1000

@@ -13,7 +13,7 @@ accepts lives in geometry/, one model each. No dolfinx, petsc4py or gmsh imports
 
 from __future__ import annotations
 
-from cosserat_fsi.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load
+from cosserat_fsi.io.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_COUNT, MAX_STEPS, Benchmark, NonNegFloat, PositiveFloat
 from .loading import load_scene, validate_geometry, validate_scene

@@ -14,7 +14,7 @@ from pydantic import BaseModel, TypeAdapter, ValidationError
 
 from cosserat_fsi.errors import InputError
 from cosserat_fsi.geometry import MODELS, Geometry, GeometryBase
-from cosserat_fsi.safe_yaml import describe_yaml_error, read_text_file, yaml_load
+from cosserat_fsi.io.safe_yaml import describe_yaml_error, read_text_file, yaml_load
 
 from .base import _short
 from .scene import Scene

@@ -51,7 +51,7 @@ class Micropolar(_Section):
 
 
 class Remesh(_Section):
-    """Automatic remeshing: gmsh meshes the fluid anew around the current solid (2D; scheme/remesh.py)."""
+    """Automatic remeshing: gmsh meshes the fluid anew around the current solid (2D; mesh/remesh.py)."""
 
     quality: float = Field(gt=0, lt=1)
     """Remesh when the minimum cell quality 4√3|K|/Σ|e|² (1: equilateral) falls below this."""
@@ -60,7 +60,7 @@ class Remesh(_Section):
 
 
 class MeshMotionSettings(_Section):
-    """How the fluid mesh follows the solid (scheme/mesh_motion.py; measured in docs/performance.md)."""
+    """How the fluid mesh follows the solid (mesh/motion.py; measured in docs/performance.md)."""
 
     method: Literal["harmonic", "elastic", "biharmonic"] = "biharmonic"
     """The extension of the solid's displacement into the fluid: ``biharmonic`` (carries a bent flag
@@ -77,7 +77,7 @@ class MeshMotionSettings(_Section):
     """Remesh the fluid when the minimum cell quality falls below ``remesh.quality``; null: never (2D only)."""
 
     def options(self) -> dict:
-        """Keyword arguments of scheme.mesh_motion.MeshMotion."""
+        """Keyword arguments of mesh.motion.MeshMotion."""
         exponent = {"harmonic": 1.0, "elastic": 1.0, "biharmonic": 0.0}[self.method]
         return {"method": self.method, "poisson_ratio": self.poisson_ratio, "wall_gap": self.wall_gap,
                 "stiffness_exponent": exponent if self.stiffness_exponent is None else self.stiffness_exponent}

@@ -7,13 +7,13 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, ValidationInfo, create_model, field_validator, model_validator
 
-from cosserat_fsi.expressions import ExpressionError, parse as parse_expression
+from cosserat_fsi.config.expressions import ExpressionError, parse as parse_expression
 
 from .base import MAX_COUNT, NonNegFloat, PositiveFloat, _Section
 
 
 def _expression(value: Any) -> Any:
-    """A number or an expression string in the grammar of cosserat_fsi/expressions.py (kept as given)."""
+    """A number or an expression string in the grammar of cosserat_fsi/config/expressions.py (kept as given)."""
     try:
         parse_expression(value)
     except ExpressionError as exc:
@@ -70,7 +70,7 @@ class BoundaryCondition(_Section):
     a side of solid cells)."""
     value: list[Expr] | Expr | None = Field(default=None, validate_default=True)
     """``velocity`` and ``traction``: [EXPR, EXPR] (3 in 3D; m/s, Pa); ``pressure``: EXPR (Pa). EXPR: a
-    number or a string in x, y, z, t (cosserat_fsi/expressions.py), finite on the boundary (exit 2 at setup,
+    number or a string in x, y, z, t (cosserat_fsi/config/expressions.py), finite on the boundary (exit 2 at setup,
     exit 3 if it turns non-finite during the run); one that uses t needs ``time.steady_at`` in a steady
     scene."""
     micro_rotation: MicroRotationValue | Literal["zero", "half_curl", "free"] | None = None

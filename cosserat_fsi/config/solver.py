@@ -11,7 +11,7 @@ from .base import _Section
 
 class Solver(_Section):
     """Linear solver of every step: MUMPS (direct) or FGMRES with a Schur fieldsplit preconditioner
-    (iterative, scheme/block_preconditioner.py); the run log says which was taken and why."""
+    (iterative, solvers/block_preconditioner.py); the run log says which was taken and why."""
 
     penalty: float = Field(default=1e-10, ge=0)
     """ζ of the pressure penalty −ζ/(μ + μ_r) (p, p̃) over the fluid cells (seed eq. 31; dimensionless, p/μ ~
@@ -47,7 +47,7 @@ class Solver(_Section):
                         str | int | float | bool] = Field(default_factory=dict)
     """PETSc options without the leading dash, read after the defaults (``fieldsplit_primal_pc_gamg_threshold:
     0.05``, ``ksp_monitor: ""``, ``mat_mumps_icntl_14: 200``); one PETSc did not use by the end of the first
-    solve is an error (scheme/linear_solver.py)."""
+    solve is an error (solvers/linear_solver.py)."""
 
     def reuses_factorization(self, moving_mesh: bool, nodal_convection: bool) -> bool:
         """Whether the kept LU preconditions GMRES (``reuse_factorization``, or its default for the scheme;

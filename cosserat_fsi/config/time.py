@@ -23,7 +23,7 @@ class _Stepping(_Section):
     """End time (s); the run starts at t = 0 (≥ dt, at most 100,000,000 steps)."""
     tolerance: float | None = Field(default=None, gt=0, lt=1)
     """Adaptive step: each step's size is chosen from an embedded estimate of its error (the step's solution
-    against an explicit predictor; scheme/time_control.py), so that the error the run delivers is proportional
+    against an explicit predictor; time_schemes/time_control.py), so that the error the run delivers is proportional
     to it (a relative error of the velocity and, in the solid, the displacement); the δt of each step is the
     ``dt`` column of timeseries.csv. After a remesh the next p + 1 steps (p the scheme's order) keep the step
     proposed before it; an incompressible solid's volume correction acts over ``dt`` instead of each step.
@@ -85,7 +85,7 @@ class GeneralizedAlpha(_Stepping):
     """Generalised-α with the convection relative to the mesh."""
     rho_infinity: float = Field(default=0.5, ge=0.0, le=1.0)
     """ρ∞: the damping of the unresolved modes (the resolved ones are barely damped, unlike BDF2's 4.5 % per
-    period at ωδt = 1/3); ρ∞ = 1 (no damping) is unstable for a solid (scheme/generalized_alpha.py)."""
+    period at ωδt = 1/3); ρ∞ = 1 (no damping) is unstable for a solid (time_schemes/generalized_alpha.py)."""
     corrector_passes: CorrectorPasses = 0
     """Re-place the mesh at the predicted t^{n+α_f}, linearise the solid stress and the convection around the
     predicted values there and solve again (without a solid: Picard). FSI3 diverges without passes at ρ∞ =
@@ -93,7 +93,7 @@ class GeneralizedAlpha(_Stepping):
 
 
 class Steady(_Section):
-    """The steady equations (no time derivative) by Newton's method (scheme/steady.py): one "step" of length 1
+    """The steady equations (no time derivative) by Newton's method (time_schemes/steady.py): one "step" of length 1
     at t = 1 (``dt`` and ``t_end`` are not keys: both read 1)."""
 
     scheme: Literal["steady"] = "steady"

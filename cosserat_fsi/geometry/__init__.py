@@ -36,17 +36,17 @@ from pydantic import Field
 from ..errors import InputError
 from . import _gmsh  # noqa: F401  (python -m cosserat_fsi.geometry imports it from here)
 from ._model import MAX_LEVEL, GeometryBase
-from .box import Box
-from .channel import Channel
-from .cube import Cube
-from .duct import Duct
+from .builtin.box import Box
+from .builtin.channel import Channel
+from .builtin.cube import Cube
+from .builtin.duct import Duct
 from .file import FileGeometry, names_path, read_names
-from .flag import Flag
-from .schaefer_turek import SchaeferTurek
-from .schaefer_turek_3d import SchaeferTurek3D
-from .square import Square
-from .turek_hron import TurekHron
-from .turek_hron_3d import TurekHron3D
+from .builtin.flag import Flag
+from .builtin.schaefer_turek import SchaeferTurek
+from .builtin.schaefer_turek_3d import SchaeferTurek3D
+from .builtin.square import Square
+from .builtin.turek_hron import TurekHron
+from .builtin.turek_hron_3d import TurekHron3D
 
 BUILDER_VERSION = 1  # bump whenever a builder changes its output: it is part of the cache key
 

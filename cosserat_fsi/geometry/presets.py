@@ -2,7 +2,7 @@
 
 A built-in geometry is a generator of a mesh with physical names (its builder module) plus the conditions
 this module writes for it in the language of a ``boundaries:`` section, so that the boundary code has one
-path (scheme/boundary.py reads only a ``boundaries`` mapping). By name:
+path (problem/boundary.py reads only a ``boundaries`` mapping). By name:
 
 - ``walls``, ``cylinder``, ``clamp``: no-slip; ``interface``: no-slip where the flag is a rigid hole in the
   fluid, nothing where it is the inside fluid–solid interface, the natural (traction-free) condition where

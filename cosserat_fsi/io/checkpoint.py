@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..files import open_regular
-from ..safe_yaml import read_text_file
+from .safe_yaml import read_text_file
 
 FORMAT = 1
 

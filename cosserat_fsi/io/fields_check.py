@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..safe_yaml import read_text_file
+from .safe_yaml import read_text_file
 
 _TIME = re.compile(r'<Time Value="([^"]+)"')
 MAX_XDMF_BYTES = 256 << 20

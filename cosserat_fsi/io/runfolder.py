@@ -40,8 +40,6 @@ RUN_FILES = ("config.yaml", "timeseries.csv", "fields.xdmf", "fields.h5", "summa
 """Files a run writes; any of them in --out means the folder holds a run."""
 RUN_DIRS = ("checkpoint", "checkpoint.tmp", "checkpoint.old")
 """Folders a run writes (checkpoints)."""
-WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO, errno.EFBIG,
-                errno.ENOENT, errno.ENOTDIR, errno.EISDIR}
 
 
 def output_error(path, exc: OSError) -> OutputError:

@@ -16,7 +16,7 @@ equations inside the domain when div u = 0, but its natural outflow condition is
 do-nothing condition μ ∂u/∂n − p n = 0, which Poiseuille flow satisfies.
 
 The pressure penalty enters as −ζ (p, p̃) (the seed writes +ζ; the sign only selects which pressure the
-pure-Dirichlet problem picks). scheme/problem.py passes ζ = solver.penalty/(μ + μ_r) in the fluid cells when the
+pure-Dirichlet problem picks). problem/model.py passes ζ = solver.penalty/(μ + μ_r) in the fluid cells when the
 velocity is prescribed on the whole boundary, else 0 (the boundary fixes the pressure; any ζ > 0 would remove
 ζ ∫ p of the mass).
 """
@@ -128,7 +128,7 @@ def nitsche_slip(u, p, v, q, *, viscosity, viscous_form: str, ds, mesh, gamma: f
     with h the cell diameter, makes it coercive for γ large enough (20 for P2). Consistent: the exact
     solution satisfies it term by term, on any boundary, straight or oblique. ``normal``: the n of the
     projections (u·n, n·σ n_h) where it is not the facet normal n_h (a curved wall's polygon:
-    scheme/slip_normal.py). Linear in (u, p) and in (ũ, p̃): it is its own residual.
+    problem/slip_normal.py). Linear in (u, p) and in (ũ, p̃): it is its own residual.
     """
     n, h = ufl.FacetNormal(mesh), ufl.CellDiameter(mesh)
     m = n if normal is None else normal

@@ -1,4 +1,4 @@
-"""Steady residuals on the reference configuration (Lagrangian solid, ALE fluid), for scheme/steady_solid.py.
+"""Steady residuals on the reference configuration (Lagrangian solid, ALE fluid), for time_schemes/steady_solid.py.
 
 The solid is the seed's incompressible law (eqs. 6–14) written as in physics/solid.py (or a compressible law of
 physics/materials.py, P = F S, without the constraint), σ = −pI + μ_s (I − B⁻¹)

@@ -1,6 +1,6 @@
 // The Turek-Hron FSI geometry written by hand as a user's file (tests/test_user_scene.py: its scene equals
 // configs/turek_hron_fsi3.yaml). The same OpenCASCADE operations, in the same order and with the same
-// options, as the built-in generator (cosserat_fsi/geometry/turek_hron.py, _gmsh.py), so that gmsh makes
+// options, as the built-in generator (cosserat_fsi/geometry/builtin/turek_hron.py, geometry/_gmsh.py), so that gmsh makes
 // the same mesh: channel 2.5 x 0.41, cylinder (0.2, 0.2) r = 0.05 from four quarter arcs, an elastic flag
 // [0.249, 0.6] x [0.19, 0.21] with its tip split at A = (0.6, 0.2). Sizes: 0.014 on the cylinder and the
 // flag, growing linearly to 0.07 at distance 0.3 (level L: gmsh's MeshSizeFactor 2^-L).
