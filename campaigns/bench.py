@@ -7,7 +7,8 @@
 Reports, per step: backtracking, right-hand side assembly, the solve with the factorisation reused, and,
 for comparison, a fresh MUMPS factorisation + solve of the same matrix (the median of
 ``--fresh-repeats``: the cost a solver that refactorises every step would pay). ``--json`` stores
-the figures; ``--report`` turns every stored JSON into the step-cost table of docs/performance.md.
+the figures; ``--report`` turns every stored JSON into the step-cost table of docs/perf_step_cost.md,
+"Cost of one step".
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ def measure(config: str, overrides: list[str], steps: int, fresh_repeats: int = 
 
 
 def report(paths) -> str:
-    """The step-cost table of docs/performance.md from stored JSON files.
+    """The step-cost table of docs/perf_step_cost.md, "Cost of one step", from stored JSON files.
 
     *step / fresh*: the whole step against one fresh MUMPS factorisation + solve of its matrix (the floor
     of a solver that refactorises every step). *rest share*: everything but the solve (assembly,

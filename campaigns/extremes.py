@@ -34,7 +34,7 @@ BASE = {"geometry.level": 0, "time.dt": 0.005, "time.t_end": 2.0, "inflow.ramp_t
         **INCOMPRESSIBLE, **FSI3_VOLUME_CORRECTION}
 MICRO = {"micropolar.lambda1": 1.0e-4, "micropolar.inertia": 1.0e-4}
 # large deformations: the shipped scene files themselves (L1, BDF2, δt 0.002, remeshing at
-# q < 0.35), run to their end on 2 MPI ranks (their serial runs are in docs/performance.md)
+# q < 0.35), run to their end on 2 MPI ranks (their serial runs are in docs/perf_mesh_motion.md, "Remeshing")
 LARGE = {"large-heavy-soft": ("configs/turek_hron_fsi3_heavy_soft.yaml: ρ_s = 10⁴, μ_s = 5·10⁵, Ū = 1, t = 15",
                               "configs/turek_hron_fsi3_heavy_soft.yaml"),
          "large-soft-fast": ("configs/turek_hron_fsi3_soft_fast.yaml: μ_s ÷ 10 (2·10⁵), Ū = 2, t = 10",

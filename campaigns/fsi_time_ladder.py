@@ -72,7 +72,7 @@ LADDERS = {
        for mesh, level in (("seed", "seed"), ("L1", 1)) for passes in (1, 2)},
     # the same with the volume correction undone over a fixed τ = 0.01 s (≥ every δt of the ladder)
     # instead of over max(δt, τ = 2 ms): the one-step correction's strength grows like 1/δt, which changes
-    # the discrete problem with δt (docs/performance.md)
+    # the discrete problem with δt (docs/perf_generalized_alpha.md, "The volume correction's time and the frequency")
     **{f"fsi3-{mesh}-ga-c2-tau": _ladder(f"tau0.01-{mesh}", FSI3_MR, {**GA, "geometry.level": level,
                                          "time.corrector_passes": 2, "solid.volume_correction_time": 0.01}, 8.0)
        for mesh, level in (("seed", "seed"), ("L1", 1))},

@@ -1,5 +1,5 @@
-"""The linear systems of a steady Newton step, solved by variants of the iterative solver (docs/performance.md,
-"Steady Newton steps in 3D").
+"""The linear systems of a steady Newton step, solved by variants of the iterative solver
+(docs/perf_linear_solvers.md, "Where the iterations go: exact blocks" and "What did not work for the steady path").
 
     python campaigns/newton_block_lab.py CONFIG LEVEL VARIANTS_JSON [--at rest solution] [--block] [--set k=v ...]
     python campaigns/newton_block_lab.py CONFIG LEVEL '[]' --at rest --mumps-estimate

@@ -1,5 +1,5 @@
 """The steady Newton step's Schur approximations and velocity-block matrices, variant by variant
-(docs/performance.md, "Steady Newton: PCD with outflow conditions and a streamline-diffusion AMG").
+(docs/perf_linear_solvers.md, "Steady Newton: PCD with outflow conditions and a streamline-diffusion AMG").
 
     python campaigns/pcd_lab.py CONFIG LEVEL VARIANTS_JSON [--at rest solution] [--set k=v ...]
 

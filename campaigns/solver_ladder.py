@@ -1,5 +1,6 @@
 """Direct (MUMPS) against iterative (FGMRES + Schur fieldsplit + AMG) per time step, on 2D and 3D ladders
-(docs/performance.md, "Direct vs iterative" and "Iterations under refinement").
+(docs/perf_scale_3d.md, "Direct vs iterative per time step" and "3D time steps: the cavity and the flag";
+docs/perf_linear_solvers.md, "Iterations under refinement and ranks").
 
     python campaigns/solver_ladder.py [--quick] [--ranks 1 2] [--cases ...] [--solvers direct iterative]
                                       [--amg auto] [--set key=value ...] [--out docs/runs/solver_ladder.json]

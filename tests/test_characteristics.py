@@ -179,7 +179,7 @@ def test_feet_on_a_rotation(monkeypatch, compiled):
     is 2X¹ₓ, with ω^n = 0 and ω^{n−1} = x it is −½X²ₓ. Over the points within 0.3 of the centre, for δt =
     0.04, 0.02, 0.01: the straight feet's error falls as δt² (the trajectory error per unit time, error/δt,
     as δt: first order); rates within ±0.1. (Midpoint feet, third order here, measured no better in CFD3
-    and were removed: docs/performance.md.)"""
+    and were removed: docs/perf_time_schemes.md, "Options removed (findings)".)"""
     if compiled and not _kernels.ENABLED:
         pytest.skip("numba not importable (or COSSERAT_FSI_NO_NUMBA=1)")
     from cosserat_fsi.app.runner import load_mesh

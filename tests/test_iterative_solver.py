@@ -255,7 +255,9 @@ def test_pcd_steady_newton_matches_mumps_with_flat_iterations():
     iterative Newton, started from the Stokes solution, converges to MUMPS's solution in as many Newton steps,
     and the FGMRES iterations per solve do not grow from level 1 to 2 (measured 40.6 / 40.2; before the BRM2
     boundary conditions and the streamline diffusion 198 / 171). BoomerAMG only: GAMG does not converge the
-    developed flow's velocity block here (docs/performance.md)."""
+    developed flow's velocity block here (docs/perf_linear_solvers.md,
+    "Steady Newton: PCD with outflow conditions and a streamline-diffusion AMG" and
+    "Direct or iterative: `solver.type: auto`")."""
     if resolved_amg("auto") != "hypre":
         pytest.skip("the steady iterative Newton converges with hypre only (this PETSc has none)")
     comm = MPI.COMM_WORLD

@@ -1,7 +1,7 @@
 """Mesh motions: the default extension carries a bent flag that the harmonic one cannot.
 
 The flag of the L0 turek_hron mesh is bent in pure bending (campaigns/mesh_motion.py) to a centreline tip
-deflection of 12 cm. Measured (docs/performance.md, "Mesh motion"): the seed's harmonic extension
+deflection of 12 cm. Measured (docs/perf_mesh_motion.md, "Mesh motion"): the seed's harmonic extension
 drops below quality 0.1 at 11.5 cm and inverts a cell at 12.5 cm; the biharmonic one stays above 0.2 to
 12.5 cm, the elastic one (ν = −0.2, χ = 1) to 13 cm.
 """

@@ -4,7 +4,7 @@ The exact solid term of a step assembled on Ω^n, with d^{n+1} = d* + ε u at th
 x^{n+1} = x + ε u (F_ε = I + ε ∇u): μ_s ∫_{Ω^{n+1}} S(∇_{n+1}d^{n+1}) : ∇_{n+1}ũ, pulled back to Ω^n with
 ∇_{n+1} = ∇ F_ε⁻¹ and dx_{n+1} = det F_ε dx. The seed's eq. (28) (``linearised_stress_residual``) drops
 O(ε) terms (a consistent linearisation that kept them, O(ε²), measured no better in FSI3 and was removed:
-docs/performance.md); the corrector pass's form is one Newton step.
+docs/perf_time_schemes.md, "Options removed (findings)"); the corrector pass's form is one Newton step.
 """
 
 from __future__ import annotations

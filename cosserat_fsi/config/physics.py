@@ -60,7 +60,7 @@ class Remesh(_Section):
 
 
 class MeshMotionSettings(_Section):
-    """How the fluid mesh follows the solid (mesh/motion.py; measured in docs/performance.md)."""
+    """How the fluid mesh follows the solid (mesh/motion.py; measured in docs/perf_mesh_motion.md, "Mesh motion")."""
 
     method: Literal["harmonic", "elastic", "biharmonic"] = "biharmonic"
     """The extension of the solid's displacement into the fluid: ``biharmonic`` (carries a bent flag

@@ -27,7 +27,8 @@ class Solver(_Section):
     null: on for the characteristics schemes on a moving mesh (the geometry changes a little per step), off
     for ale_bdf2 and generalized_alpha, whose matrix changes more (FSI3 L1 at δt = 0.005: 10.7 GMRES
     iterations per step and a refactorisation on 46 % of the steps anyway, 0.129 s per step against 0.062 s
-    for a refactorisation every step; docs/performance.md)."""
+    for a refactorisation every step; docs/perf_time_schemes.md,
+    "BDF2 with the convection relative to the moving mesh (ale_bdf2): the FSI3 and CFD3 targets met")."""
     krylov_rtol: float = Field(default=1e-10, gt=0, lt=1)
     """Relative tolerance of the Krylov solves: GMRES with a kept factorisation, FGMRES of ``type:
     iterative``."""
@@ -40,7 +41,8 @@ class Solver(_Section):
     amg: Literal["auto", "gamg", "hypre"] = "auto"  # the velocity block's multigrid (iterative; auto: hypre if any)
     """The velocity block's multigrid (iterative): ``hypre`` (BoomerAMG), ``gamg``, or ``auto``: BoomerAMG
     where this PETSc has it (Debian's), else GAMG (the wheel's; the run log names it). Both give the same
-    solution to the Krylov tolerance, BoomerAMG in fewer iterations on FSI (docs/performance.md)."""
+    solution to the Krylov tolerance, BoomerAMG in fewer iterations on FSI (docs/perf_linear_solvers.md,
+    "Iterations under refinement and ranks")."""
     max_iterations: int = Field(default=1000, ge=1, le=100_000)  # FGMRES iterations (iterative)
     """Most FGMRES iterations of one solve (iterative)."""
     petsc_options: dict[Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=200)],

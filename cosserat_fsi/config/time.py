@@ -89,7 +89,8 @@ class GeneralizedAlpha(_Stepping):
     corrector_passes: CorrectorPasses = 0
     """Re-place the mesh at the predicted t^{n+α_f}, linearise the solid stress and the convection around the
     predicted values there and solve again (without a solid: Picard). FSI3 diverges without passes at ρ∞ =
-    0.5; with 2 at δt = 0.01 it is within 2.7 % (docs/performance.md)."""
+    0.5; with 2 at δt = 0.01 it is within 2.7 % (docs/perf_generalized_alpha.md,
+    "The corrector's fixed point: two passes, and the solid's area kept in Ω^{n+1}")."""
 
 
 class Steady(_Section):

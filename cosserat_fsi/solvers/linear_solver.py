@@ -42,7 +42,8 @@ STEADY_BOOMERAMG = {"fieldsplit_primal_pc_hypre_boomeramg_coarsen_type": "HMIS",
                     "fieldsplit_primal_pc_hypre_boomeramg_strong_threshold": 0.5}
 """BoomerAMG on a steady Newton step's velocity block (hypre's recommendation for 3D): on 3D-1Z level 1 the same
 FGMRES iterations as the default Falgout coarsening (64 / 63 per solve), at half its time per solve; the
-default's hierarchy did not fit 24 GB on level 2 (docs/performance.md)."""
+default's hierarchy did not fit 24 GB on level 2 (docs/perf_linear_solvers.md,
+"Steady Newton: PCD with outflow conditions and a streamline-diffusion AMG")."""
 RESIDUAL_SLACK, RESIDUAL_FLOOR = 10.0, 1e-8
 """An iterative solve is accepted when its true relative residual is at most max(RESIDUAL_SLACK x the Krylov
 rtol, RESIDUAL_FLOOR): FGMRES's own estimate drifts from the true residual by rounding, 1.1e-9 against an rtol of
@@ -56,7 +57,7 @@ its memory (6.8 GB at 250k 3D unknowns, growing like N^1.1-1.2: 24 GB near 0.5-0
 steady Newton solve in 3D (MUMPS refactorises each Newton step, but is 10x faster than the iterative solve on
 3D-1Z's level 0: memory decides), with BoomerAMG (GAMG does not converge a developed flow's velocity block).
 In 2D MUMPS is taken at every size: 2-2.5x faster per step at every measured size with the same growth, and a
-small 2D fill (docs/performance.md, "Direct or iterative")."""
+small 2D fill (docs/perf_linear_solvers.md, "Direct or iterative: `solver.type: auto`")."""
 _PREFIXES = itertools.count()
 log = logging.getLogger("cosserat_fsi")
 _ITERATIVE: list[weakref.ref] = []  # the iterative solvers in the order of creation (their KSPs destroyed at exit)

@@ -21,7 +21,8 @@ from .pressure_matrices import inner_solver, pressure_laplace_matrix, viscosity
 STREAMLINE_SCALE = 0.25
 """δ = STREAMLINE_SCALE · h/(2|w|) (1 − 1/Pe_h), Pe_h = |w| h/(2ν) > 1 (Elman, Silvester & Wathen's weight
 scaled): 1, 0.5, 0.25, 0.125 of it measured 169 / 114 / 88 / 101 FGMRES iterations on 3D-1Z's converged
-Newton step (level 0), 1/16 did not converge (docs/performance.md)."""
+Newton step (level 0), 1/16 did not converge (docs/perf_linear_solvers.md,
+"Steady Newton: PCD with outflow conditions and a streamline-diffusion AMG")."""
 
 
 def streamline_diffusion(problem, velocity, du, v):
