@@ -77,6 +77,10 @@ PY := $(RUN_VENV)/bin/python
 LAUNCH := $(if $(filter-out 1,$(NP)),$(RUN_MPI) -n $(NP) ,)
 
 PYTEST_FLAGS := -q -rs --durations=15
+# The serial suites on two pytest-xdist workers, one per core; worksteal: a worker that runs out of tests takes
+# half of the other's queue, so the long tests do not end the run on one core. Each worker frees what a test
+# built after it (tests/conftest.py) and the run's last lines give the peak memory of a test process.
+PYTEST_SERIAL_FLAGS := $(PYTEST_FLAGS) -n 2 --dist worksteal
 # Under mpirun both ranks would race on .pytest_cache.
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
@@ -165,12 +169,12 @@ test-fast: $(RUN_SETUP)
 	$(PY) -m pytest $(PYTEST_FLAGS) -n 2 -m "not slow"
 
 test-debian: setup
-	@echo "=== pytest: Debian stack (dolfinx 0.5.2, serial) ==="
-	$(VENV)/bin/python -m pytest $(PYTEST_FLAGS)
+	@echo "=== pytest: Debian stack (dolfinx 0.5.2, serial, 2 workers) ==="
+	$(VENV)/bin/python -m pytest $(PYTEST_SERIAL_FLAGS)
 
 test-latest: setup-latest
-	@echo "=== pytest: latest stack (PyPI dolfinx-solver-real, serial) ==="
-	$(VENV_LATEST)/bin/python -m pytest $(PYTEST_FLAGS)
+	@echo "=== pytest: latest stack (PyPI dolfinx-solver-real, serial, 2 workers) ==="
+	$(VENV_LATEST)/bin/python -m pytest $(PYTEST_SERIAL_FLAGS)
 
 test-mpi: test-mpi-debian test-mpi-latest
 

@@ -253,3 +253,15 @@ def option_used(name: str) -> bool:
     if petsc.PetscOptionsUsed(None, name.encode(), ctypes.byref(used)):  # the names are stored without dash
         raise RuntimeError(f"PetscOptionsUsed failed for {name}")
     return bool(used.value)
+
+
+def free_petsc_garbage(comm) -> None:
+    """Destroy now the PETSc objects (matrices, factorisations, Krylov solvers) that Python has let go of, on
+    every rank of ``comm`` together (collective). petsc4py 3.18 (Debian) does not destroy an object that the
+    garbage collector frees: it keeps it until ``PETSc.garbage_cleanup``, so each Simulation dropped kept its
+    memory (the 3D flag's: 0.45 GB each, measured); the wheel's petsc4py frees them at once (0 GB)."""
+    import gc
+
+    gc.collect()
+    if hasattr(PETSc, "garbage_cleanup"):
+        PETSc.garbage_cleanup(comm)

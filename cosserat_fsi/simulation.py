@@ -15,6 +15,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from . import compat
 from .problem.boundary import BoundaryConditions
 from .mesh.motion import MeshMotion, PrescribedMotion
 from .problem.model import Model, Problem
@@ -46,6 +47,7 @@ class Simulation:
         self.scene, self.mesh, self.comm, self.exact = scene, mesh, comm, exact
         self.cell_tags, self.facet_tags = cell_tags, facet_tags
         self.timers = Timers()
+        compat.free_petsc_garbage(comm)  # what an earlier Simulation of this process let go of
         if facet_ids is None:
             from .geometry import facet_ids as scene_facet_ids
             from .parallel import on_root
@@ -107,12 +109,10 @@ class Simulation:
         carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
         Returns (and appends to ``remeshes``) the record: t, step, reason, the minimum quality of the fluid
         cells before/after, seconds."""
-        import gc
         import shutil
         import tempfile
         import time
 
-        from . import compat
         from .mesh.remesh import remesh_msh
         from .mesh.transfer import interpolator
 
@@ -140,7 +140,7 @@ class Simulation:
             self.stepper.restored()
             self.motion.lowest_quality = lowest
             del old
-            gc.collect()  # the old mesh's PETSc objects (factorisations): freed now, on every rank together
+            compat.free_petsc_garbage(self.comm)  # the old mesh's factorisations: freed now, on every rank
         self.mesh_file = None if scratch else path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
                   "quality_after": self.motion.min_fluid_quality, "seconds": time.perf_counter() - start,
