@@ -131,26 +131,28 @@ def test_bdf2_on_a_moving_mesh_is_second_order(scheme):
                          ids=["seed", "corrector", "ale", "generalized_alpha",
                               "generalized_alpha_corrector", "generalized_alpha_corrector2"])
 def test_solid_time_order(options):
-    """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3. Measured against
-    BDF2 at δt = 5e-4: BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and
-    vertices, the stress linearised around d* = (4d^n − d^{n−1})/3 on the configuration X + d*) errors
-    3.0e-5, 6.6e-6, 1.2e-6 for δt = 4e-3, 2e-3, 1e-3 (rates 2.18, 2.46; 2.14, 2.27 against δt = 2.5e-4);
-    first order at δt = 4e-3: 8.1e-4 (rates 1.07, 1.21 against its own δt = 2.5e-4 run). The other
-    second-order schemes and the corrector passes keep the order."""
+    """Flag under gravity ramped in smoothly over 0.2 s (no fluid): uy(A) at t = 0.3 for δt = 4e-3, 2e-3,
+    1e-3, the observed order from the differences of successive values (log2 of their ratio; no reference
+    run). BDF2 (d^{n+1} = (4d^n − d^{n−1})/3 + (2δt/3) u^{n+1} on the solid nodes and vertices, the stress
+    linearised around d* = (4d^n − d^{n−1})/3 on the configuration X + d*): measured 2.10 (against BDF2 at
+    δt = 5e-4 the errors are 3.0e-5, 6.6e-6, 1.2e-6, rates 2.17, 2.46); with a corrector pass 1.85, ale_bdf2
+    1.89, generalised-α 1.81 with 0, 1 or 2 passes (its errors against its own δt = 5e-4 run: rates 1.87,
+    2.03: the coarsest step is not yet asymptotic). First order at δt = 4e-3 is 33× further from the finest
+    BDF2 value than BDF2 at the same step (a first-order scheme's observed order would be ≈ 1)."""
     def uy_A(scheme, dt):
         scene = validate_scene({"geometry": {"name": "flag", "level": 0},
                                 "solid": {"rho": 1000.0, "mu_s": 2e6, "gravity": 2.0, "gravity_ramp_time": 0.2},
                                 "time": {"dt": dt, "t_end": 0.3, "scheme": scheme, **options}})
         return _run(scene)[1]["uy_A"][-1]
 
-    ref = uy_A("characteristics2", 0.0005)
-    errors = np.array([abs(uy_A("characteristics2", dt) - ref) for dt in (0.004, 0.002, 0.001)])
-    rates = np.log2(errors[:-1] / errors[1:])
-    assert np.all((rates > 1.8) & (rates < 3.2)), (errors, rates)
+    values = np.array([uy_A("characteristics2", dt) for dt in (0.004, 0.002, 0.001)])
+    differences = np.abs(np.diff(values))  # (1 − 2^−p) e(δt): their ratio is 2^p
+    rate = np.log2(differences[0] / differences[1])
+    assert 1.7 < rate < 3.2, (values, rate)
     if options:
         return
-    first_order = abs(uy_A("characteristics1", 0.004) - ref)
-    assert first_order > 10 * errors[0], (first_order, errors)
+    first_order = abs(uy_A("characteristics1", 0.004) - values[-1])
+    assert first_order > 10 * abs(values[0] - values[-1]), (first_order, values)
 
 
 def _cfd1_drag(prescribed_motion=None, drop_mesh_velocity=False):
