@@ -165,13 +165,14 @@ def _free_mpi_objects(request):
     heap back to the system (``malloc_trim``) and record the peak resident memory of this process and of its
     largest child so far (:func:`pytest_terminal_summary` prints the largest)."""
     yield
-    import gc
-
-    gc.collect()
-    if "cosserat_fsi.compat" in sys.modules:  # PETSc's deferred objects too (compat.free_petsc_garbage)
+    if "cosserat_fsi.compat" in sys.modules:  # gc.collect, then PETSc's deferred objects
         from mpi4py import MPI
 
         sys.modules["cosserat_fsi.compat"].free_petsc_garbage(MPI.COMM_WORLD)
+    else:
+        import gc
+
+        gc.collect()
     _trim_heap()
     request.node.user_properties.append(("peak_memory_gib", _peak_memory_gib()))
 
