@@ -150,9 +150,9 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     names = names_path(path) if name == "file" else None
     try:
         if (path.exists() and stamp.exists() and stamp.read_text().strip() == _sha256(path)
-                and (names is None or names.is_file())):
+                and (names is None or "dim" in read_names(path))):  # a table of every current key
             return path
-    except (OSError, UnicodeDecodeError):
+    except (OSError, ValueError):  # a damaged stamp or names table: rebuilt
         pass
     if path.exists():  # no stamp (older cache) or a damaged file: rebuild, never read a bad mesh
         log.warning("mesh cache %s is damaged or unverified: rebuilding it", path.name)

@@ -11,10 +11,16 @@ optionally, ``solid`` (``cells: {fluid: [names], solid: [names]}`` maps other na
 freely and keep the file's ids. In the cached mesh the cells are renumbered to the project's fluid 1 /
 solid 2 (tags.py) and, when there are solid cells, the fluid–solid interface is found from the cells and
 added as the facet group ``interface`` (a group of that name in the file must be exactly those facets).
-Every boundary facet (an edge of exactly one cell) must be in exactly one facet group; the ones in none become
-the group ``default`` (reserved), whose condition the scene must give (``boundaries.default``). One physical name
-per group, one group per facet (else _Refused, one line).
+Every boundary facet (a facet of exactly one cell) must be in exactly one facet group; the ones in none become
+the group ``default`` (reserved), whose condition the scene must give (``boundaries.default``). A facet group
+inside the domain (an interior curve in 2D, surface in 3D) takes no condition. One physical name per group,
+one group per facet (else _Refused, one line).
 The name -> id table of the facets is written next to the mesh (``<mesh>.names.json``; :func:`facet_ids`).
+
+The dimension D comes from the file: physical volumes name 3D cells (tetrahedra; physical surfaces are then
+the facet groups), else physical surfaces name 2D cells (triangles or quadrangles, in the plane z = 0) and
+physical curves the facet groups. ``FileGeometry.DIM`` reads it from the file's text when the scene is
+validated (geo_scan.file_dimension); the names table records the mesh's own (``"dim"``), checked against it.
 
 A ``.geo`` builds a model and nothing else: commands that run programs, write files or read files outside
 its folder are refused naming the file and line (geo_scan.py) unless ``trusted: true``; a ``.msh`` with
@@ -31,13 +37,15 @@ import pathlib
 from types import ModuleType
 from typing import Any, ClassVar, Literal
 
-from pydantic import Field, field_validator, model_validator
-
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
 
 from ..errors import InputError
 from ..files import read_regular
+from . import file_topology as topo
 from ._model import MAX_LEVEL, GeometryBase
+from .geo_scan import file_dimension, msh_physical_names
+
+_Refused = topo.Refused
 
 SUFFIXES = (".geo", ".msh")
 
@@ -57,8 +65,9 @@ class FileGeometry(GeometryBase):
     """A user's gmsh ``.geo`` or ``.msh`` file with physical names (the module docstring says how it is read)."""
 
     SOLID_FROM_FILE: ClassVar[bool] = True  # solid cells if the file has them (checked when it is read)
+    _dim: int = PrivateAttr(default=2)
     name: Literal["file"] = "file"
-    """A user's own 2D gmsh mesh with physical names: the facet groups keep the file's names (the scene's
+    """A user's own 2D or 3D gmsh mesh with physical names: the facet groups keep the file's names (the scene's
     ``boundaries`` give their conditions); boundary facets in no group become the group ``default``."""
     path: str
     """A gmsh ``.geo`` (meshed with Mesh.MeshSizeFactor × 2^-level) or ``.msh`` (read as it is) file,
@@ -100,10 +109,17 @@ class FileGeometry(GeometryBase):
             from .geo_scan import scan_geo
 
             scan_geo(self.path)  # InputError "<file>:<line>: gmsh command X is not allowed in a scene"
+        self._dim = file_dimension(self.path)
         both = set(self.cells.fluid) & set(self.cells.solid)
         if both:
             raise ValueError(f"geometry.cells: {sorted(both)[0]!r} is both fluid and solid")
         return self
+
+    @property
+    def DIM(self) -> int:  # noqa: N802 (the name of GeometryBase.DIM)
+        """3 if the file names cells with a physical volume (geo_scan.file_dimension, without meshing), else 2;
+        the mesh's own dimension is checked against it (check_scene)."""
+        return self._dim
 
     @property
     def solid_cells(self) -> bool:
@@ -152,6 +168,11 @@ def check_scene(scene, names: dict[str, Any]) -> None:
     from ..errors import InputError
 
     shown = pathlib.Path(scene.geometry.path).name
+    dim = names.get("dim", 2)
+    if dim != scene.geometry.DIM:
+        raise InputError(f"geometry.path: {shown} holds a {dim}D mesh but its physical names declare "
+                         f"{scene.geometry.DIM}D (3D: the cells in a Physical Volume, in the file or one it "
+                         "Includes or Merges)")
     cells = names["cells"]
     if scene.fluid is not None and not cells.get("fluid"):
         raise InputError(f"geometry.path: {shown} has no fluid cells (cell groups "
@@ -160,8 +181,9 @@ def check_scene(scene, names: dict[str, Any]) -> None:
         raise InputError(f"solid: missing section ({shown} has {cells['solid']} solid cells)")
     if scene.solid is not None and not cells.get("solid"):
         raise InputError(f"solid: {shown} has no solid cells (cell groups {', '.join(scene.geometry.cells.solid)})")
+    interior = set(names.get("interior", ()))
+    internal = ({"interface"} if cells.get("solid") and cells.get("fluid") else set()) | interior
     facets = sorted(names["facets"])
-    internal = {"interface"} if cells.get("solid") and cells.get("fluid") else set()
     unnamed, given = names.get("unnamed"), scene.boundaries or {}
     if unnamed and "default" not in given:
         near = ", ".join(f"{c:.4g}" for c in unnamed["near"])
@@ -172,6 +194,9 @@ def check_scene(scene, names: dict[str, Any]) -> None:
                          "condition of the facets in none); remove it")
     if scene.boundaries is not None:
         for name in scene.boundaries:
+            if name in interior:
+                raise InputError(f"boundaries.{name}: facet group {name} of {shown} is inside the domain (not on "
+                                 "its boundary); it takes no condition")
             if name in internal:
                 raise InputError(f"boundaries.{name}: the fluid-solid interface is inside the domain; it takes "
                                  "no condition")
@@ -188,8 +213,10 @@ def check_scene(scene, names: dict[str, Any]) -> None:
                 raise InputError(f"observables.forces[{i}]: {shown} has no boundary {name!r} (it has: "
                                  f"{', '.join(n for n in facets if n not in internal) or 'none'}; the interface: "
                                  "observables.wetted_solid)")
-        if scene.observables.wetted_solid and not internal:
+        if scene.observables.wetted_solid and not (cells.get("solid") and cells.get("fluid")):
             raise InputError(f"observables.wetted_solid: {shown} has no fluid-solid interface")
+    if scene.inflow is not None and "inlet" in interior:
+        raise InputError(f"inflow: facet group inlet of {shown} is inside the domain (not on its boundary)")
     if scene.inflow is not None and "inlet" not in names["facets"]:
         raise InputError(f"inflow: {shown} has no facet group 'inlet' (it has: "
                          f"{', '.join(sorted(names['facets'])) or 'none'})")
@@ -201,18 +228,17 @@ def names_path(msh: str | os.PathLike) -> pathlib.Path:
 
 
 def read_names(msh: str | os.PathLike) -> dict[str, Any]:
-    """``{"facets": {name: id}, "cells": {"fluid": n, "solid": n}}`` of a cached file mesh."""
+    """``{"dim": D, "facets": {name: id}, "cells": {"fluid": n, "solid": n}, "interior": [names]}`` (and
+    ``"unnamed"``: the boundary facets in no group) of a cached file mesh; ``interior``: the facet groups
+    inside the domain (no boundary facet), which take no condition."""
     return json.loads(names_path(msh).read_text())
-
-
-class _Refused(Exception):
-    """Bad input found while meshing (the child prints ``geometry.<key>: ...`` and exits 2)."""
 
 
 def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, Any]:
     """Open (and for a ``.geo``, mesh) the file in the current gmsh session; make the physical groups the
     project's (cells fluid 1 / solid 2, facets as named, ``interface`` from the cells). Returns the names
-    table. Raises :class:`_Refused` with a one-line ``geometry.path: ...`` message for bad input."""
+    table. Raises :class:`_Refused` with a one-line ``geometry.path: ...`` message for bad input. Generic in
+    the dimension D of the file's cells (2: triangles or quadrangles, 3: tetrahedra; file_topology.py)."""
     import numpy as np
 
     path = params["path"]
@@ -238,11 +264,11 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     named = {(dim, tag): gmsh.model.getPhysicalName(dim, tag) for dim, tag in groups}
     if not groups or not any(named.values()):
         raise _Refused(f"geometry.path: {shown} has no physical names (name its cell groups fluid/solid and "
-                       "its boundaries with Physical Surface/Curve(\"name\"))")
-    dims = {dim for dim, _ in groups}
-    if 3 in dims or any(len(gmsh.model.mesh.getElements(3, e)[0]) for _, e in gmsh.model.getEntities(3)):
-        raise _Refused(f"geometry.path: {shown} is a 3D mesh; scenes are 2D (physical surfaces for the cells, "
-                       "physical curves for the boundaries)")
+                       "its boundaries with Physical Surface/Curve(\"name\"), in 3D Physical Volume/Surface)")
+    D = 3 if any(dim == 3 for dim, _ in groups) else 2
+    if D == 2 and any(len(gmsh.model.mesh.getElements(3, e)[0]) for _, e in gmsh.model.getEntities(3)):
+        raise _Refused(f"geometry.path: {shown} is a 3D mesh without physical volumes (name its cells with "
+                       "Physical Volume(\"fluid\") and its boundaries with Physical Surface)")
     for (dim, tag), name in named.items():
         if not name:
             raise _Refused(f"geometry.path: physical group {tag} of dimension {dim} in {shown} has no name")
@@ -251,11 +277,11 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
         if len(twins) > 1:
             raise _Refused(f"geometry.path: {shown}: physical name \"{name}\" is used by {len(twins)} groups (tags "
                            f"{', '.join(map(str, twins[:-1]))} and {twins[-1]}); give each group its own name")
-        if dim == 1 and name == "default":
+        if dim == D - 1 and name == "default":
             raise _Refused(f"geometry.path: {shown}: physical name \"default\" is reserved (boundaries.default is "
                            "the condition of the boundary facets in no group); rename the group")
-    cell_groups = {name: tag for (dim, tag), name in named.items() if dim == 2}
-    facet_groups = {name: tag for (dim, tag), name in named.items() if dim == 1}
+    cell_groups = {name: tag for (dim, tag), name in named.items() if dim == D}
+    facet_groups = {name: tag for (dim, tag), name in named.items() if dim == D - 1}
     fluid_names, solid_names = params["fluid"], params["solid"]
     for name in cell_groups:
         if name not in fluid_names and name not in solid_names:
@@ -265,131 +291,57 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
     solid = [cell_groups[n] for n in solid_names if n in cell_groups]
     if not fluid and not solid:
         raise _Refused(f"geometry.path: {shown} has no cell group named {' or '.join(fluid_names + solid_names)} "
-                       f"(its surface groups: {', '.join(cell_groups) or 'none'})")
+                       f"(its {'volume' if D == 3 else 'surface'} groups: {', '.join(cell_groups) or 'none'})")
 
-    def entities(tags):
-        return sorted({int(e) for t in tags for e in gmsh.model.getEntitiesForPhysicalGroup(2, t)})
-
-    kinds = set()
-
-    def edges(ents):
-        found = []
-        for e in ents:
-            types, _, nodes = gmsh.model.mesh.getElements(2, e)
-            for etype, enodes in zip(types, nodes):
-                if etype not in (2, 3):  # 3-node triangles, 4-node quadrangles
-                    raise _Refused(f"geometry.path: {shown} has {gmsh.model.mesh.getElementProperties(etype)[0]} "
-                                   "elements; only first-order triangles and quadrangles are supported")
-                k = 3 if etype == 2 else 4
-                kinds.add(k)
-                cells = np.asarray(enodes, dtype=np.int64).reshape(-1, k)
-                found += [np.sort(np.stack([cells[:, i], cells[:, (i + 1) % k]], axis=1), axis=1) for i in range(k)]
-        return np.unique(np.concatenate(found), axis=0) if found else np.zeros((0, 2), dtype=np.int64)
+    def entities(tags, dim=D):
+        return sorted({int(e) for t in tags for e in gmsh.model.getEntitiesForPhysicalGroup(dim, t)})
 
     fluid_ents, solid_ents = entities(fluid), entities(solid)
     if set(fluid_ents) & set(solid_ents):
-        raise _Refused(f"geometry.cells: surface {sorted(set(fluid_ents) & set(solid_ents))[0]} of {shown} is in "
-                       "a fluid and a solid group")
-    interface = np.zeros((0, 2), dtype=np.int64)
-    f_edges, s_edges = edges(fluid_ents), edges(solid_ents)  # (also refuses elements other than P1)
-    if len(kinds) > 1:  # dolfinx reads one cell type per mesh
+        raise _Refused(f"geometry.cells: {'volume' if D == 3 else 'surface'} "
+                       f"{sorted(set(fluid_ents) & set(solid_ents))[0]} of {shown} is in a fluid and a solid group")
+    f_facets, f_kinds = topo.cell_facets(gmsh, D, fluid_ents, shown)  # (also refuses elements other than P1)
+    s_facets, s_kinds = topo.cell_facets(gmsh, D, solid_ents, shown)
+    if len(f_kinds | s_kinds) > 1:  # dolfinx reads one cell type per mesh
         raise _Refused(f"{path}: mixed cell types (triangle and quadrilateral) are not supported")
-    if fluid_ents and solid_ents:
-        both = np.concatenate([f_edges, s_edges])
-        uniq, counts = np.unique(both, axis=0, return_counts=True)
-        interface = uniq[counts > 1]
-    if "interface" in facet_groups and len(interface):
-        given = np.concatenate([_line_nodes(gmsh, e) for e in
-                                gmsh.model.getEntitiesForPhysicalGroup(1, facet_groups["interface"])])
-        if not np.array_equal(np.unique(np.sort(given, axis=1), axis=0), interface):
-            raise _Refused(f"geometry.path: facet group 'interface' of {shown} is not the fluid-solid interface "
-                           "(leave it out: it is found from the cells)")
-    facet_entities = {tag: [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(1, tag)]
-                      for tag in facet_groups.values()}
-    unnamed = _unnamed_boundary(gmsh, shown, fluid_ents + solid_ents, facet_groups, facet_entities)
+    if D == 2:
+        topo.check_plane(gmsh, shown)
+    boundary, inside, interface = topo.split_facets(f_facets, s_facets)
+    rows = {name: topo.facet_rows(gmsh, D, entities([tag], D - 1)) for name, tag in facet_groups.items()}
+    if "interface" in facet_groups and len(interface) and not np.array_equal(rows["interface"], interface):
+        raise _Refused(f"geometry.path: facet group 'interface' of {shown} is not the fluid-solid interface "
+                       "(leave it out: it is found from the cells)")
+    unnamed, interior = topo.check_groups(gmsh, D, shown, rows, boundary, inside)
+    interior = [n for n in interior if not (n == "interface" and len(interface))]  # the computed one: its own
+    facet_entities = {tag: entities([tag], D - 1) for tag in facet_groups.values()}
     gmsh.model.removePhysicalGroups()
     for ents, tag, name in ((fluid_ents, 1, "fluid"), (solid_ents, 2, "solid")):
         if ents:
-            gmsh.model.addPhysicalGroup(2, ents, tag)
-            gmsh.model.setPhysicalName(2, tag, name)
+            gmsh.model.addPhysicalGroup(D, ents, tag)
+            gmsh.model.setPhysicalName(D, tag, name)
     facets = dict(facet_groups)
     if len(interface) and "interface" not in facets:
-        entity = gmsh.model.addDiscreteEntity(1)
-        gmsh.model.mesh.addElementsByType(entity, 1, [], interface.ravel().tolist())
         facets["interface"] = max(facets.values(), default=0) + 1
-        gmsh.model.addPhysicalGroup(1, [entity], facets["interface"])
-        gmsh.model.setPhysicalName(1, facets["interface"], "interface")
+        topo.add_facet_group(gmsh, D, interface, facets["interface"], "interface")
     for name, tag in facet_groups.items():
-        gmsh.model.addPhysicalGroup(1, facet_entities[tag], tag)
-        gmsh.model.setPhysicalName(1, tag, name)
+        gmsh.model.addPhysicalGroup(D - 1, facet_entities[tag], tag)
+        gmsh.model.setPhysicalName(D - 1, tag, name)
     out: dict[str, Any] = {}
     if len(unnamed):  # the group ``default``: the scene must give it a condition (check_scene)
-        entity = gmsh.model.addDiscreteEntity(1)
-        gmsh.model.mesh.addElementsByType(entity, 1, [], unnamed.ravel().tolist())
         facets["default"] = max(facets.values(), default=0) + 1
-        gmsh.model.addPhysicalGroup(1, [entity], facets["default"])
-        gmsh.model.setPhysicalName(1, facets["default"], "default")
-        ends = [gmsh.model.mesh.getNode(int(n))[0][:2] for n in unnamed[0]]
-        out["unnamed"] = {"count": int(len(unnamed)), "near": [round(float(c), 6) for c in np.mean(ends, axis=0)]}
-    counts = {"fluid": _count(gmsh, fluid_ents), "solid": _count(gmsh, solid_ents)}
-    return {"facets": facets, "cells": counts, **out}
-
-
-def _unnamed_boundary(gmsh, shown, cell_entities, facet_groups, facet_entities) -> Any:
-    """The boundary facets (node pairs, sorted) in no named facet group; _Refused if a facet is in two
-    groups. The boundary: the edges of exactly one cell."""
-    import numpy as np
-
-    found = []
-    for e in cell_entities:
-        types, _, nodes = gmsh.model.mesh.getElements(2, e)
-        for etype, enodes in zip(types, nodes):
-            k = 3 if etype == 2 else 4
-            cells = np.asarray(enodes, dtype=np.int64).reshape(-1, k)
-            found += [np.sort(np.stack([cells[:, i], cells[:, (i + 1) % k]], axis=1), axis=1) for i in range(k)]
-    uniq, counts = np.unique(np.concatenate(found), axis=0, return_counts=True)
-    boundary = uniq[counts == 1]
-    owner: dict[tuple[int, int], str] = {}
-    for name, tag in facet_groups.items():
-        lines = [_line_nodes(gmsh, e) for e in facet_entities[tag]]
-        rows = np.unique(np.sort(np.concatenate(lines), axis=1), axis=0) if lines else np.zeros((0, 2), np.int64)
-        for a, b in rows.tolist():
-            other = owner.setdefault((a, b), name)
-            if other != name:
-                x = np.mean([gmsh.model.mesh.getNode(a)[0][:2], gmsh.model.mesh.getNode(b)[0][:2]], axis=0)
-                first, second = sorted((other, name))
-                raise _Refused(f"geometry.path: {shown}: a facet near ({x[0]:.4g}, {x[1]:.4g}) is in two physical "
-                               f"groups, \"{first}\" and \"{second}\"; put each boundary facet in one group")
-    keep = [i for i, (a, b) in enumerate(boundary.tolist()) if (a, b) not in owner]
-    return boundary[keep]
+        topo.add_facet_group(gmsh, D, unnamed, facets["default"], "default")
+        out["unnamed"] = topo.summary(gmsh, D, unnamed)
+    counts = {"fluid": topo.count_cells(gmsh, D, fluid_ents), "solid": topo.count_cells(gmsh, D, solid_ents)}
+    return {"dim": D, "facets": facets, "cells": counts, "interior": sorted(interior), **out}
 
 
 def _msh_names_once(path: str, shown: str) -> None:
     """_Refused if the ``$PhysicalNames`` of a .msh give one name (in one dimension) to two groups."""
-    with open(path, "rb") as f:
-        head = f.read(1 << 20)
-    if b"$PhysicalNames" not in head:
-        return
-    block = head.split(b"$PhysicalNames", 1)[1].split(b"$EndPhysicalNames", 1)[0].decode("utf-8", "replace")
-    tags: dict[tuple[str, str], list[int]] = {}
-    for line in block.strip().splitlines()[1:]:
-        parts = line.split(None, 2)
-        if len(parts) == 3 and parts[0].isdigit() and parts[1].isdigit():
-            tags.setdefault((parts[0], parts[2].strip().strip('"')), []).append(int(parts[1]))
+    tags: dict[tuple[int, str], list[int]] = {}
+    for dim, tag, name in msh_physical_names(path):
+        tags.setdefault((dim, name), []).append(tag)
     for (_, name), found in tags.items():
         if len(found) > 1:
             found = sorted(found)
             raise _Refused(f"geometry.path: {shown}: physical name \"{name}\" is used by {len(found)} groups (tags "
                            f"{', '.join(map(str, found[:-1]))} and {found[-1]}); give each group its own name")
-
-
-def _line_nodes(gmsh, entity) -> Any:
-    import numpy as np
-
-    types, _, nodes = gmsh.model.mesh.getElements(1, entity)
-    out = [np.asarray(n, dtype=np.int64).reshape(-1, 2) for t, n in zip(types, nodes) if t == 1]
-    return np.concatenate(out) if out else np.zeros((0, 2), dtype=np.int64)
-
-
-def _count(gmsh, ents) -> int:
-    return int(sum(len(tags) for e in ents for tags in gmsh.model.mesh.getElements(2, e)[1]))

@@ -8,6 +8,10 @@ stall the program (``Exit``, ``Abort``, ``Sleep``) and point gmsh at programs (`
 ``geometry.trusted: true``; ``Include``/``Merge``/``ShapeFromFile`` of a literal file name inside the .geo's
 folder are allowed (and included .geo files are scanned too). Comments (``//``, ``/* */``) and the inside of
 strings are skipped, so a word in them is not a command.
+
+:func:`file_dimension` reads the dimension a file declares without meshing it: 3 when a ``Physical Volume``
+(in the .geo or a file it ``Include``s) or a dimension-3 entry of a ``.msh``'s ``$PhysicalNames`` (the file
+itself or one a .geo ``Merge``s) names cells, else 2.
 """
 
 from __future__ import annotations
@@ -109,3 +113,40 @@ def _scan(path: Path, toks: list, root: Path, seen: set) -> None:
                 raise _refuse(path, line, value, f" of a file outside {root}")
             if value == "Include" and target not in seen:
                 scan_geo(target, root, seen)
+
+
+def file_dimension(path: str | os.PathLike, _seen: set | None = None, _merged: bool = False) -> int:
+    """3 if the .geo or .msh ``path`` (or a file it Includes or Merges) has a physical volume, else 2."""
+    path = Path(path)
+    seen = _seen if _seen is not None else set()
+    suffix = path.suffix.lower()
+    if (path.resolve() in seen or len(seen) > MAX_INCLUDES or not path.is_file()
+            or (_merged and suffix not in (".geo", ".msh"))):  # a merged CAD file names no groups
+        return 2
+    seen.add(path.resolve())
+    if suffix == ".msh":
+        return 3 if any(dim == 3 for dim, _, _ in msh_physical_names(path)) else 2
+    text = read_regular(path, "gmsh .geo file", max_bytes=16 << 20).decode("utf-8", "replace")
+    for token in _TOKENS:
+        toks = list(_tokens(text, token))
+        for i, (kind, value, _) in enumerate(toks[:-1]):
+            if kind == "id" and value == "Physical" and toks[i + 1][1] == "Volume":
+                return 3
+            if kind == "id" and value in ("Include", "Merge") and toks[i + 1][0] == "str":
+                if file_dimension(path.parent / toks[i + 1][1], seen, value == "Merge") == 3:
+                    return 3
+    return 2
+
+
+def msh_physical_names(path: str | os.PathLike) -> list[tuple[int, int, str]]:
+    """(dimension, tag, name) of each entry of a .msh's ``$PhysicalNames`` (read from its first MB)."""
+    head = read_regular(Path(path), "gmsh .msh file", max_bytes=1 << 20)
+    if b"$PhysicalNames" not in head:
+        return []
+    block = head.split(b"$PhysicalNames", 1)[1].split(b"$EndPhysicalNames", 1)[0].decode("utf-8", "replace")
+    out = []
+    for line in block.strip().splitlines()[1:]:
+        parts = line.split(None, 2)
+        if len(parts) == 3 and parts[0].isdigit() and parts[1].isdigit():
+            out.append((int(parts[0]), int(parts[1]), parts[2].strip().strip('"')))
+    return out
