@@ -302,6 +302,8 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
                        f"{sorted(set(fluid_ents) & set(solid_ents))[0]} of {shown} is in a fluid and a solid group")
     f_facets, f_kinds = topo.cell_facets(gmsh, D, fluid_ents, shown)  # (also refuses elements other than P1)
     s_facets, s_kinds = topo.cell_facets(gmsh, D, solid_ents, shown)
+    if not len(f_facets) and not len(s_facets):  # (gmsh may leave a volume it failed on empty)
+        raise _Refused(f"geometry.path: gmsh could not mesh {shown} (no cells in its fluid and solid groups)")
     if len(f_kinds | s_kinds) > 1:  # dolfinx reads one cell type per mesh
         raise _Refused(f"{path}: mixed cell types (triangle and quadrilateral) are not supported")
     if D == 2:
