@@ -17,6 +17,7 @@ from cosserat_fsi.app.runner import _build_checked
 from cosserat_fsi.config import validate_geometry, validate_scene
 from cosserat_fsi.geometry import build_msh
 from cosserat_fsi.geometry.file import read_names
+from cosserat_fsi.problem.model import Problem
 
 import dolfinx
 import ufl
@@ -142,7 +143,7 @@ Physical Surface("walls") -= {inlet(), outlet(), mid()};
 @pytest.mark.mpi
 def test_facet_group_inside_the_domain(tmp_path):
     """A named surface inside the domain is listed as interior (its faces are those of two cells: dS gives
-    its area 0.16, ds nothing) and needs no condition."""
+    its area 0.16, ds nothing) and needs no condition; without a boundaries section it gets none by name."""
     (tmp_path / "m.geo").write_text(SPLIT)
     scene = validate_scene({
         "geometry": {"name": "file", "path": str(tmp_path / "m.geo")}, "fluid": {"rho": 1.0, "mu": 1.0},
@@ -157,6 +158,14 @@ def test_facet_group_inside_the_domain(tmp_path):
     assert _measure(mesh, facets, "dS", names["facets"]["mid"]) == pytest.approx(0.16, abs=1e-12)
     assert _measure(mesh, facets, "ds", names["facets"]["mid"]) == 0.0
     assert _measure(mesh, facets, "ds", names["facets"]["walls"]) == pytest.approx(1.6, abs=1e-12)
+    data = scene.model_dump(mode="json")
+    data.update(boundaries=None, inflow={"u_mean": 1.0})  # conditions by name: none for "mid"
+    data["fluid"].pop("body_force")  # (dumped as the 2-component default, which a 3D scene refuses when given)
+    cells = dolfinx.mesh.meshtags(mesh, 3, np.arange(mesh.topology.index_map(3).size_local, dtype=np.int32),
+                                  np.ones(mesh.topology.index_map(3).size_local, dtype=np.int32))
+    problem = Problem(validate_scene(data), mesh, cells, facets, facet_ids=names["facets"])
+    assert set(problem.conditions()) == {"inlet", "outlet", "walls"}
+    assert problem.conditions()["inlet"].type == "velocity"
 
 
 MSH3 = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n2 1 \"walls\"\n3 2 \"fluid\"\n$EndPhysicalNames\n"

@@ -3,15 +3,20 @@
 The walls are the given facets (segments in 2D, triangles in 3D) of the reference mesh; they do not move,
 so every rank keeps all of them. A solid vertex closer than the gap to a wall stops the run
 (``DivergenceError``, exit 3): the fluid mesh between them could not carry the flow.
+
+:func:`groups_inside`: the facet groups of a user's mesh that are not on its boundary (no condition by name).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from mpi4py import MPI
 
 from .. import compat
 from ..errors import DivergenceError
 from ..points import _kernels
+
+import dolfinx
 
 PAIRS = 1 << 18
 """Point–triangle pairs per numpy pass of ``_triangle_distance`` (its temporaries: about 100 bytes a pair)."""
@@ -152,3 +157,20 @@ def _nearest_triangle(points, triangles, normal, area2):
             if d < dist[i]:
                 dist[i], nearest[i] = d, t
     return dist, nearest
+
+
+def groups_inside(mesh, facet_tags, facet_ids: dict[str, int]) -> set[str]:
+    """The facet groups none of whose facets is on the mesh's boundary (a file's curves or surfaces inside
+    the domain; they take no condition). Collective."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    exterior = dolfinx.mesh.exterior_facet_indices(mesh.topology)
+    owned = facet_tags.indices[facet_tags.indices < mesh.topology.index_map(tdim - 1).size_local]
+    values = facet_tags.values[facet_tags.indices < mesh.topology.index_map(tdim - 1).size_local]
+    out = set()
+    for name, tag in facet_ids.items():
+        facets = owned[values == tag]
+        total, on = mesh.comm.allreduce(np.array([len(facets), np.isin(facets, exterior).sum()]), op=MPI.SUM)
+        if total and not on:
+            out.add(name)
+    return out

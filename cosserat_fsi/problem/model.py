@@ -222,7 +222,11 @@ class Problem:
         if self.scene.geometry.name != "file" or self.scene.boundaries is not None:
             return self.scene.conditions()
         if getattr(self, "_file_conditions", None) is None:  # collective once (the first call is __init__'s)
-            self._file_conditions = self.scene.conditions(self.facet_ids, self._inlet_extent())
+            from ..mesh.wall_gap import groups_inside
+
+            inside = groups_inside(self.mesh, self.facet_tags, self.facet_ids)  # no condition by name there
+            names = {name: tag for name, tag in self.facet_ids.items() if name not in inside}
+            self._file_conditions = self.scene.conditions(names, self._inlet_extent())
         return self._file_conditions
 
     def _inlet_extent(self) -> dict:
