@@ -30,7 +30,7 @@ class GeometryBase(BaseModel):
     FLUID: ClassVar[bool] = True  # has fluid cells: the scene needs a fluid section
     INFLOW: ClassVar[bool] = False  # has an inlet: the scene needs an inflow section
     SOLID_FROM_FILE: ClassVar[bool] = False  # solid cells are known only from the file (geometry file)
-    DIM: ClassVar[int] = 2  # space dimension of the mesh (2: triangles, 3: tetrahedra)
+    DIM: ClassVar[int] = 2  # space dimension of the mesh (2: triangles, 3: tetrahedra; a file: read from it)
 
     name: str
     """The geometry (the tag of the union)."""
