@@ -185,6 +185,7 @@ def test_3d_file_refused(main, tmp_path, name, text, extra, start, part):
     assert part is None or part in lines[0], err
 
 
+@pytest.mark.slow
 def test_hexahedra_refused_from_the_command_line(tmp_path):
     """The same contract through the real command line: exit 2, one line, the --out folder never made."""
     name, text, extra, start, part = CASES["hexahedra"]
