@@ -209,3 +209,32 @@ def test_periodic_reference_parts_and_a_column_not_periodic_yet():
     lines = verdict_lines(summary)
     assert "reference: FAIL (2/3 within tolerance)" in lines
     assert any(line.startswith("uy_tip.amplitude") and line.rstrip().endswith("pass") for line in lines)
+
+
+def test_flow_rate_through_an_interior_group_is_refused(tmp_path):
+    """The fluid-solid interface of the block channel is inside the mesh (no outward normal): a scene built in
+    Python that asks its flow rate is refused naming the key (a scene file is refused earlier, by the file's
+    names: tests/faults/test_scene_observables.py)."""
+    from mpi4py import MPI
+
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.config.sections import ObservableSet
+    from cosserat_fsi.errors import InputError
+    from cosserat_fsi.observables import Observables
+    from cosserat_fsi.simulation import Simulation
+
+    (tmp_path / "block.geo").write_text((DATA / "block_channel.geo").read_text())
+    (tmp_path / "scene.yaml").write_text(
+        "geometry: {name: file, path: block.geo}\nfluid: {rho: 1.0, mu: 0.01}\nsolid: {rho: 1.0, mu_s: 100.0}\n"
+        "inflow: {u_mean: 1.0}\ntime: {scheme: characteristics1, dt: 0.01, t_end: 0.01}\n")
+    scene = load_scene(tmp_path / "scene.yaml")
+    mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)  # (which would check the names against the file's)
+    scene.observables = ObservableSet(flow_rates=["outlet", "interface"])
+    sim = Simulation(scene, mesh, ct, ft, MPI.COMM_WORLD)
+    with pytest.raises(InputError) as caught:
+        Observables(sim)
+    assert str(caught.value) == ("observables.flow_rates[1]: facet group 'interface' is inside the mesh (a flow rate "
+                                 "is through a boundary, along its outward normal)")
+    scene.observables = ObservableSet(flow_rates=["outlet"])
+    assert "flow_rate_outlet" in Observables(sim).columns

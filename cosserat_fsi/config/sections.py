@@ -5,8 +5,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import (AfterValidator, BeforeValidator, Field, ValidationInfo, create_model, field_validator,
-                      model_validator)
+from pydantic import BeforeValidator, Field, ValidationInfo, create_model, field_validator, model_validator
 
 from cosserat_fsi.config.expressions import ExpressionError, parse as parse_expression
 
@@ -140,14 +139,15 @@ class BoundaryCondition(_Section):
         return out
 
 
-def _coordinates(value: list) -> list:
-    """2 or 3 coordinates; which of the two the scene's dimension wants: :func:`coordinate_problem`."""
-    if len(value) not in (2, 3):
+def _coordinates(value: Any) -> Any:
+    """2 or 3 coordinates (checked first, for its message; the numbers then by the type); which of the two the
+    scene's dimension wants: :func:`coordinate_problem`."""
+    if isinstance(value, list) and len(value) not in (2, 3):
         raise ValueError(f"must have 2 or 3 coordinates ([x, y] in a 2D scene, [x, y, z] in 3D; got {len(value)})")
     return value
 
 
-Point = Annotated[list[float], AfterValidator(_coordinates)]
+Point = Annotated[list[float], Field(min_length=2, max_length=3), BeforeValidator(_coordinates)]
 
 
 def coordinate_problem(key: str, count: int, dim: int) -> str | None:
