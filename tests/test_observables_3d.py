@@ -193,7 +193,7 @@ def test_3d_probes_serial_equals_parallel():
     assert abs(serial["u_P"]) > 0.1 and abs(serial["omega_z_Q"]) > 0.01  # not a trivial flow
 
 
-# the forces of schaefer_turek_3d level 0 (steady, Re 20) before the third component was added, per stack
+# recorded forces of schaefer_turek_3d level 0 (steady, Re 20; the z component changes none of them), per stack
 # (each meshes with its own gmsh): drag, lift, drag_surface, lift_surface
 ST3D_FORCES = {"0.5.2": (0.005005343358931408, 8.943793776510143e-06, 0.004778879984239796, -1.5854896766916636e-05),
                "0.11.0.post0": (0.005030156453757787, 4.292164989744879e-05, 0.004797445598509633,
@@ -203,7 +203,7 @@ ST3D_FORCES = {"0.5.2": (0.005005343358931408, 8.943793776510143e-06, 0.00477887
 @pytest.mark.slow
 def test_schaefer_turek_3d_force_has_three_components():
     """Schäfer–Turek 3D-1Z, level 0, steady: the columns drag, lift, side and their surface forms; drag and
-    lift as recorded before ``side`` existed (to 1e-9 relative); the duct and the cylinder are symmetric in z
+    lift as recorded (to 1e-9 relative); the duct and the cylinder are symmetric in z
     about 0.205, so side ≈ 0: measured side / drag −2.2e-4 (Debian), +2.6e-4 (latest), side_surface / drag
     −2.7e-4, +1.5e-5 (the coarse mesh's asymmetry); asserted |side| < 1e-3 drag, both forms. The surface form
     within 6 % of the residual one (measured −4.5 %, −4.6 %). ≈ 20 s."""
