@@ -1,10 +1,12 @@
-"""A scene's own observables: ``observables.lines`` profiles (line_NAME.csv), where the probes landed
-(run.log), a ``reference`` section's verdict, the scene's columns in ``plot`` and in the ``result:`` line.
+"""A scene's own observables: ``observables.lines`` profiles (line_NAME.csv), ``observables.flow_rates``,
+where the probes landed (run.log), a ``reference`` section's verdict, the scene's columns in ``plot`` and in
+the ``result:`` line.
 
 The channel of tests/data/user_scene/channel.geo (2 x 1, structured triangles) with a parabolic inflow
 u = 4 y (1 − y), a do-nothing outlet and μ = 1: steady Stokes–Navier–Stokes flow is exactly that parabola
 with a linear pressure p = 8 (2 − x), both in the P2/P1 spaces, so a profile across the channel equals the
-parabola to round-off, on 1 and 2 ranks.
+parabola to round-off, on 1 and 2 ranks, and the flow rate out of the outlet is ∫ 4y(1 − y) dy = 2/3 (into
+the inlet: −2/3 along its outward normal).
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from cosserat_fsi.io import read_timeseries
 
 DATA = Path(__file__).parent / "data" / "user_scene"
 
@@ -29,7 +33,7 @@ def _scene(folder: Path, extra: str = "", time: str = "{scheme: steady}") -> Pat
                     "outlet: {type: do_nothing},\n"
                     "             top: {type: no_slip}, bottom: {type: no_slip}}\n"
                     "observables: {points: {C: [1.0, 0.5]}, lines: {across: {from: [1.3, 0.0], to: [1.3, 1.0], "
-                    "points: 11}}}\n"
+                    "points: 11}}, flow_rates: [inlet, outlet]}\n"
                     "solver: {penalty: 0.0}\n"
                     "output: {progress: false, fields: false}\n" + extra)
     return path
@@ -62,6 +66,10 @@ def test_poiseuille_profile_is_the_exact_parabola_on_one_and_two_ranks(run_cli, 
     assert header == ["t", "s", "x", "y", "u", "v", "p"] and a.shape == (11, 7)  # steady: one block
     _exact_check(header, a)
     assert np.abs(a - b).max() < 1e-12
+    for run in ("one", "two"):
+        series = read_timeseries(tmp_path / run / "timeseries.csv")
+        assert abs(series["flow_rate_outlet"][-1] - 2 / 3) < 1e-10, run
+        assert abs(series["flow_rate_inlet"][-1] + 2 / 3) < 1e-10, run
     log = (tmp_path / "one" / "run.log").read_text()
     assert "probe C at (1, 0.5): inside the mesh, fluid cell" in log
     assert "line across: 11 points from (1.3, 0.0) to (1.3, 1.0)" in log
@@ -99,6 +107,10 @@ def test_lines_every_output_step_and_restart_continues_the_file(run_cli, tmp_pat
     ("{u_C: {value: 1.0, tolerance: 1.0e-6}}", "PASS (1/1"),
     ("{u_C: {value: 1.1, tolerance: 0.01}}", "FAIL (0/1"),
     ("{v_C: {value: 0, abs_tolerance: 1.0e-8}, p_C: {value: 8.0, tolerance: 1.0e-6}}", "PASS (2/2"),
+    ("{flow_rate_outlet: {value: 0.6666666666666666, tolerance: 1.0e-9}, u_C: {value: 1.0, tolerance: 1.0e-6}}",
+     "PASS (2/2"),
+    ("{flow_rate_inlet: {value: 0.6666666666666666, tolerance: 1.0e-3}, u_C: {value: 1.0, tolerance: 1.0e-6}}",
+     "FAIL (1/2"),
 ])
 def test_reference_section_gives_a_verdict(run_cli, tmp_path, reference, verdict):
     """u at the centre of the channel is exactly 1, p at x = 1 exactly 8: the verdict table of the run."""
@@ -109,6 +121,7 @@ def test_reference_section_gives_a_verdict(run_cli, tmp_path, reference, verdict
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["reference"]["u_C" if "u_C" in reference else "v_C"]["reference"] in (1.0, 1.1, 0.0)
     assert "u_C = 1" in out  # the scene's own probe in the result line
+    assert "flow_rate_outlet = 0.666667" in out
 
 
 def test_plot_draws_the_scene_probes(run_cli, tmp_path):
@@ -116,7 +129,7 @@ def test_plot_draws_the_scene_probes(run_cli, tmp_path):
     assert run_cli("run", scene, "--out", tmp_path / "run").returncode == 0
     result = run_cli("plot", tmp_path / "run", "--out", tmp_path / "plots")
     assert result.returncode == 0, result.stderr
-    assert (tmp_path / "plots" / "probes.png").is_file()
+    assert (tmp_path / "plots" / "probes.png").is_file() and (tmp_path / "plots" / "flow_rates.png").is_file()
 
 
 def test_resolved_config_with_lines_and_reference_loads_again(tmp_path):
@@ -196,3 +209,32 @@ def test_periodic_reference_parts_and_a_column_not_periodic_yet():
     lines = verdict_lines(summary)
     assert "reference: FAIL (2/3 within tolerance)" in lines
     assert any(line.startswith("uy_tip.amplitude") and line.rstrip().endswith("pass") for line in lines)
+
+
+def test_flow_rate_through_an_interior_group_is_refused(tmp_path):
+    """The fluid-solid interface of the block channel is inside the mesh (no outward normal): a scene built in
+    Python that asks its flow rate is refused naming the key (a scene file is refused earlier, by the file's
+    names: tests/faults/test_scene_observables.py)."""
+    from mpi4py import MPI
+
+    from cosserat_fsi.app.runner import load_mesh
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.config.sections import ObservableSet
+    from cosserat_fsi.errors import InputError
+    from cosserat_fsi.observables import Observables
+    from cosserat_fsi.simulation import Simulation
+
+    (tmp_path / "block.geo").write_text((DATA / "block_channel.geo").read_text())
+    (tmp_path / "scene.yaml").write_text(
+        "geometry: {name: file, path: block.geo}\nfluid: {rho: 1.0, mu: 0.01}\nsolid: {rho: 1.0, mu_s: 100.0}\n"
+        "inflow: {u_mean: 1.0}\ntime: {scheme: characteristics1, dt: 0.01, t_end: 0.01}\n")
+    scene = load_scene(tmp_path / "scene.yaml")
+    mesh, ct, ft, _ = load_mesh(scene, MPI.COMM_WORLD)  # (which would check the names against the file's)
+    scene.observables = ObservableSet(flow_rates=["outlet", "interface"])
+    sim = Simulation(scene, mesh, ct, ft, MPI.COMM_WORLD)
+    with pytest.raises(InputError) as caught:
+        Observables(sim)
+    assert str(caught.value) == ("observables.flow_rates[1]: facet group 'interface' is inside the mesh (a flow rate "
+                                 "is through a boundary, along its outward normal)")
+    scene.observables = ObservableSet(flow_rates=["outlet"])
+    assert "flow_rate_outlet" in Observables(sim).columns

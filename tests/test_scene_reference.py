@@ -87,7 +87,7 @@ def test_the_page_lists_every_key_once():
     ("time[scheme=steady].newton_rtol", "float", "1e-10", "> 0, < 1", ""),
     ("geometry[name=turek_hron].level", "int or str", "0", "", "str: `seed`"),
     ("boundaries.NAME.value", "list[EXPR] or EXPR", "null", "", ""),
-    ("observables.points", "{NAME: list[float]}", "{}", "each value: 2 entries", ""),
+    ("observables.points", "{NAME: list[float]}", "{}", "each value: 2 to 3 entries", ""),
     ("output.every", "int", "10", ">= 1, <= 1,000,000,000", ""),
     ("solver.petsc_options", "{OPTION: str or int or float or bool}", "{}",
      "keys: matches `^[a-z][a-z0-9_]*$`, at most 200 characters", ""),

@@ -1,11 +1,11 @@
 """`cosserat-fsi plot RUN_DIR`: PNGs of a finished (or stopped) run.
 
 Time series from timeseries.csv (tip displacement, forces, energies, other observables; a file scene's
-named probes and solid points: :func:`own_groups`; the step size δt(t) of a run with ``time.tolerance``,
-steps.png), with the
-reference band of the scene's benchmark when there is one, and pyvista off-screen snapshots of |u|, p
-and ω on the deformed mesh (the solid outlined) at chosen times, from fields.h5. Works on any rank
-count's output (the files are global) and needs no display.
+named probes, solid points and flow rates: :func:`own_groups`; the step size δt(t) of a run with
+``time.tolerance``, steps.png), with the reference band of the scene's benchmark when there is one, and
+pyvista off-screen snapshots of |u|, p and ω on the deformed mesh (the solid outlined) at chosen times, from
+fields.h5 (2D runs; a 3D run's fields are for ParaView). Works on any rank count's output (the files are
+global) and needs no display.
 """
 
 from __future__ import annotations
@@ -35,20 +35,23 @@ def _save(write, path: Path) -> None:
             tmp.unlink()
 
 GROUPS = {  # file stem -> (columns, y label)
-    "tip": (("ux_A", "uy_A"), "displacement of A (m)"),
-    "forces": (("drag", "lift"), "force (N per m)"),
+    "tip": (("ux_A", "uy_A", "uz_A"), "displacement of A (m)"),
+    "forces": (("drag", "lift", "side"), "force (N per m; N in 3D)"),
     "energies": (("energy_kinetic", "energy_elastic", "energy_total"), "energy (J per m)"),
     "flow": (("dp", "flow_rate", "omega_max"), "value"),
 }
 
 
 def own_groups(series: dict) -> dict:
-    """A file scene's named observables (config ``observables``): probes.png (u_, v_, p_, omega_ NAME),
-    solid_points.png (ux_, uy_ NAME); its forces are in forces.png with the built-in scenes'."""
+    """A file scene's named observables (config ``observables``): probes.png (u_, v_, w_, p_, omega_ NAME;
+    omega_x_, omega_y_, omega_z_ NAME in 3D), solid_points.png (ux_, uy_, uz_ NAME), flow_rates.png
+    (flow_rate_NAME); its forces are in forces.png with the built-in scenes'."""
     builtin = {c for columns, _ in GROUPS.values() for c in columns}
-    probes = tuple(c for c in series if c.startswith(("u_", "v_", "p_", "omega_")) and c not in builtin)
-    solid = tuple(c for c in series if c.startswith(("ux_", "uy_")) and c not in builtin)
-    out = {"probes": (probes, "probe values"), "solid_points": (solid, "displacement (m)")}
+    probes = tuple(c for c in series if c.startswith(("u_", "v_", "w_", "p_", "omega_")) and c not in builtin)
+    solid = tuple(c for c in series if c.startswith(("ux_", "uy_", "uz_")) and c not in builtin)
+    rates = tuple(c for c in series if c.startswith("flow_rate_"))
+    out = {"probes": (probes, "probe values"), "solid_points": (solid, "displacement (m)"),
+           "flow_rates": (rates, "flow rate (m³/s)")}
     return {stem: group for stem, group in out.items() if group[0]}
 
 
@@ -65,6 +68,7 @@ class Fields:
         self.h5 = open_h5(self.path)
         self.steps = step_names(self.h5, len(self.times), self.path)
         try:
+            self.corners = self.h5["mesh/topology"].shape[1]  # 3: triangles; 4: tetrahedra (a 3D run)
             self.triangles = self.h5["mesh/topology"][:, :3]
             n = self.h5[f"mesh/geometry/{self.steps[0]}"].shape[0] if self.steps else 0
             ok = not self.steps or (self.triangles.min() >= 0 and self.triangles.max() < n)
@@ -187,6 +191,11 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
 
     pv.OFF_SCREEN = True
     if len(fields.times) == 0:
+        return []
+    if fields.corners != 3:
+        from .failure import say
+
+        say(f"{run_dir}: no snapshots of a 3D run (its fields: fields.xdmf in ParaView)")
         return []
     steps = sorted({fields.nearest(t) for t in times}) if times else [len(fields.times) - 1]
     made = []

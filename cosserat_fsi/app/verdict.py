@@ -7,8 +7,8 @@ analysis, so noise on a steady signal is not reported as an oscillation.
 
 :func:`verdict_lines` turns a summary into the lines printed at the end of ``cosserat-fsi run``: for a
 benchmark scene a table (quantity, value, reference, error, tolerance, pass/fail), then the headline
-observables (final value, or mean ± amplitude [frequency]; a file scene's named probes and solid points
-too) and the wall time. A scene's own ``reference`` section (config/sections.py ``Reference``) gets the same
+observables (final value, or mean ± amplitude [frequency]; a file scene's named probes, solid points and flow
+rates too) and the wall time. A scene's own ``reference`` section (config/sections.py ``Reference``) gets the same
 table under ``reference: PASS|FAIL``.
 
 ``TOLERANCES``: the relative tolerance of each benchmark quantity (the bands of campaigns/validate.py;
@@ -39,8 +39,9 @@ TOLERANCES = {
 
 NOT_SIGNALS = ("t", "dt")  # the time and, with time.tolerance, the step size: not observables
 STEADY_RTOL = 1e-4  # a signal whose last half varies by less than this fraction of its size is steady
-HEADLINE = ("drag", "lift", "dp", "ux_A", "uy_A", "flow_rate", "omega_max", "energy_total",
+HEADLINE = ("drag", "lift", "side", "dp", "ux_A", "uy_A", "uz_A", "flow_rate", "omega_max", "energy_total",
             "velocity_error", "micro_rotation_error")
+OWN = ("u_", "v_", "w_", "p_", "omega_", "ux_", "uy_", "uz_", "flow_rate_")  # a file scene's named columns
 
 
 def classify_signals(series: dict) -> tuple[dict, dict]:
@@ -162,9 +163,9 @@ def reference_rows(summary: dict) -> list[tuple]:
 
 
 def _headline(final: dict) -> list[str]:
-    """The headline columns present: the built-in ones, then a file scene's named probes and solid points."""
-    own = [k for k in final if k not in HEADLINE and k.startswith(("u_", "v_", "p_", "omega_", "ux_", "uy_"))
-           and k != "omega_max"]
+    """The headline columns present: the built-in ones, then a file scene's named probes, solid points and flow
+    rates."""
+    own = [k for k in final if k not in HEADLINE and k.startswith(OWN)]
     return [k for k in HEADLINE if k in final] + own
 
 

@@ -12,7 +12,7 @@ from cosserat_fsi.geometry import Geometry
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_STEPS, Benchmark, _Section, _short
 from .physics import Fluid, Inflow, Micropolar, Solid
-from .sections import (BoundaryCondition, ObservableSet, Output, Reference, check_boundary_data,
+from .sections import (BoundaryCondition, ObservableSet, Output, Reference, check_boundary_data, coordinate_problem,
                        precheck_micro_values)
 from .solver import Solver
 from .time import Time
@@ -46,8 +46,8 @@ class Scene(_Section):
     but the computed ``interface`` needs one); not with an inflow section. null: the built-in conditions by
     name (no-slip on walls, cylinder, clamp; the inflow on inlet; do-nothing elsewhere)."""
     observables: ObservableSet | None = None
-    """Geometry file only: forces, probes, solid points and line profiles to report (the built-in geometries
-    have their own)."""
+    """Geometry file only: forces, probes, solid points, line profiles and flow rates to report (the built-in
+    geometries have their own); positions with the mesh's dimension."""
     reference: dict[str, Reference] | None = None
     """Pass/FAIL references for columns of timeseries.csv, by column name, checked at the end of the run like
     a benchmark's (not with benchmark)."""
@@ -101,6 +101,10 @@ class Scene(_Section):
                 raise ValueError(f"observables: only for geometry file (geometry {geo.name} has its own)")
             if self.observables.solid_points and self.solid is None:
                 raise ValueError("observables.solid_points: the scene has no solid section")
+            for key, x in self.observables.positions().items():
+                problem = coordinate_problem(key, len(x), geo.DIM)
+                if problem is not None:
+                    raise ValueError(problem)
         for name, ref in (self.reference or {}).items():
             if not re.fullmatch(r"\w{1,100}", name):
                 raise ValueError(f"reference.{name[:40]}: not a time-series column name")

@@ -139,7 +139,23 @@ class BoundaryCondition(_Section):
         return out
 
 
-Point = Annotated[list[float], Field(min_length=2, max_length=2)]
+def _coordinates(value: Any) -> Any:
+    """2 or 3 coordinates (checked first, for its message; the numbers then by the type); which of the two the
+    scene's dimension wants: :func:`coordinate_problem`."""
+    if isinstance(value, list) and len(value) not in (2, 3):
+        raise ValueError(f"must have 2 or 3 coordinates ([x, y] in a 2D scene, [x, y, z] in 3D; got {len(value)})")
+    return value
+
+
+Point = Annotated[list[float], Field(min_length=2, max_length=3), BeforeValidator(_coordinates)]
+
+
+def coordinate_problem(key: str, count: int, dim: int) -> str | None:
+    """The one-line error for a point with ``count`` coordinates in a ``dim``-D scene (None if it fits)."""
+    if count == dim:
+        return None
+    want = "[x, y]" if dim == 2 else "[x, y, z]"
+    return f"{key}: must have {dim} coordinates {want} in a {dim}D scene (got {count})"
 
 
 MAX_LINE_POINTS = 10_000
@@ -163,7 +179,7 @@ class _Line(_Section):
         return getattr(self, "from")
 
     def samples(self):
-        """(s, x): arc lengths (N,) and positions (N, 2) of the samples."""
+        """(s, x): arc lengths (N,) and positions (N, dim) of the samples (dim: the coordinates given)."""
         import numpy as np
 
         a, b = np.asarray(self.start, dtype=float), np.asarray(self.to, dtype=float)
@@ -173,51 +189,67 @@ class _Line(_Section):
 
 Line = create_model("Line", __base__=_Line, __module__=__name__, __doc__=(
     "A profile along a segment fixed in space, written at every field-output step to ``line_NAME.csv``."), **{
-    "from": (Point, Field(description="Start [x, y] of the segment (m); the arc length s counts from it.")),
-    "to": (Point, Field(description="End [x, y] of the segment (m); not the start.")),
+    "from": (Point, Field(description="Start [x, y] (3D: [x, y, z]) of the segment (m); the arc length s counts "
+                                      "from it.")),
+    "to": (Point, Field(description="End [x, y] (3D: [x, y, z]) of the segment (m); not the start.")),
     "points": (int, Field(ge=2, le=MAX_LINE_POINTS, description="Number N of equally spaced samples, both ends "
                                                                 "included; each must lie in the mesh."))})
 
 
 class ObservableSet(_Section):
     """What a file scene reports by name (``observables``), besides energies and flow rate: columns of
-    timeseries.csv and line profiles. NAME: 1 to 40 letters, digits or '_'."""
+    timeseries.csv and line profiles. NAME: 1 to 40 letters, digits or '_'. A position has the scene's
+    dimension: [x, y] in 2D, [x, y, z] in 3D."""
 
     forces: list[str] = Field(default_factory=list)
     """Named boundaries (each once) that make up the body whose force is reported: columns ``drag``, ``lift``
     (residual form) and ``drag_surface``, ``lift_surface`` (−∫ T n), summed over them (N, per unit depth in
-    2D)."""
+    2D); in 3D also ``side`` and ``side_surface`` (the z component; drag along x, lift along y)."""
     wetted_solid: bool = False
     """Add the fluid–solid interface to the body of ``forces``."""
     points: dict[str, Point] = Field(default_factory=dict)
-    """Probes fixed in space, ``{NAME: [x, y]}`` (m): columns ``u_NAME``, ``v_NAME``, ``p_NAME``, with
-    micropolar terms also ``omega_NAME``; a point outside the mesh is an error at setup."""
+    """Probes fixed in space, ``{NAME: [x, y]}`` (3D: ``[x, y, z]``; m): columns ``u_NAME``, ``v_NAME``,
+    ``p_NAME``, with micropolar terms also ``omega_NAME``; in 3D ``u_NAME``, ``v_NAME``, ``w_NAME``,
+    ``p_NAME`` and ``omega_x_NAME``, ``omega_y_NAME``, ``omega_z_NAME``. A point outside the mesh is an error
+    at setup."""
     solid_points: dict[str, Point] = Field(default_factory=dict)
-    """Material points of the solid, ``{NAME: [x, y]}`` (m): the solid node nearest to the given reference
-    position, moving with it; columns ``ux_NAME``, ``uy_NAME`` (its displacement; run.log says which node and
-    how far from the asked position)."""
+    """Material points of the solid, ``{NAME: [x, y]}`` (3D: ``[x, y, z]``; m): the solid node nearest to the
+    given reference position, moving with it; columns ``ux_NAME``, ``uy_NAME`` (3D: and ``uz_NAME``; its
+    displacement; run.log says which node and how far from the asked position)."""
     lines: dict[str, Line] | None = None
     """Profiles along segments fixed in space, ``{NAME: {from: [x, y], to: [x, y], points: N}}``, written at
     every field-output step (``output.every``; the initial state too on a time-dependent run) to
-    ``line_NAME.csv``: long format, header ``t,s,x,y,u,v,p`` (``omega`` appended with micropolar terms), N rows
-    per output time, ``s`` the arc length from ``from`` (pandas: ``read_csv`` then ``groupby("t")``; ParaView's
-    CSV reader reads it as a table)."""
+    ``line_NAME.csv``: long format, header ``t,s,x,y,u,v,p`` (``omega`` appended with micropolar terms; 3D:
+    ``t,s,x,y,z,u,v,w,p`` and ``omega_x,omega_y,omega_z``), N rows per output time, ``s`` the arc length from
+    ``from`` (pandas: ``read_csv`` then ``groupby("t")``; ParaView's CSV reader reads it as a table)."""
+    flow_rates: list[str] = Field(default_factory=list)
+    """Named boundary facet groups (each once; 1 to 40 letters, digits or '_'): column ``flow_rate_NAME`` =
+    ∫ u·n ds over the group, n its outward normal (m³/s; per unit depth in 2D). A group inside the mesh
+    (between two cells, e.g. the fluid–solid interface) has no outward side and is refused."""
 
-    @field_validator("points", "solid_points", "lines")
+    @field_validator("points", "solid_points", "lines", "flow_rates")
     @classmethod
-    def _names(cls, value: dict | None) -> dict | None:
+    def _names(cls, value: dict | list | None) -> dict | list | None:
         for name in value or ():
             if not re.fullmatch(r"[A-Za-z0-9_]{1,40}", name):
                 raise ValueError(f"{name[:40]!r}: names are 1 to 40 letters, digits or '_' (they name columns/files)")
         return value
 
-    @field_validator("forces")
+    @field_validator("forces", "flow_rates")
     @classmethod
-    def _forces_once(cls, value: list[str]) -> list[str]:
+    def _once(cls, value: list[str]) -> list[str]:
         twice = next((name for i, name in enumerate(value) if name in value[:i]), None)
         if twice is not None:
             raise ValueError(f'"{twice}" listed twice')
         return value
+
+    def positions(self) -> dict:
+        """{full key: coordinates} of every position given (points, solid points, the ends of the lines)."""
+        out = {f"observables.points.{name}": x for name, x in self.points.items()}
+        out.update({f"observables.solid_points.{name}": x for name, x in self.solid_points.items()})
+        for name, line in (self.lines or {}).items():
+            out.update({f"observables.lines.{name}.from": line.start, f"observables.lines.{name}.to": line.to})
+        return out
 
 
 class Reference(_Section):

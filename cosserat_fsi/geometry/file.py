@@ -213,6 +213,10 @@ def check_scene(scene, names: dict[str, Any]) -> None:
                 raise InputError(f"observables.forces[{i}]: {shown} has no boundary {name!r} (it has: "
                                  f"{', '.join(n for n in facets if n not in internal) or 'none'}; the interface: "
                                  "observables.wetted_solid)")
+        for i, name in enumerate(scene.observables.flow_rates):  # inside: no outward normal
+            if name not in names["facets"] or name in internal:
+                raise InputError(f"observables.flow_rates[{i}]: {shown} has no boundary facet group {name!r} (it "
+                                 f"has: {', '.join(n for n in facets if n not in internal) or 'none'})")
         if scene.observables.wetted_solid and not (cells.get("solid") and cells.get("fluid")):
             raise InputError(f"observables.wetted_solid: {shown} has no fluid-solid interface")
     if scene.inflow is not None and "inlet" in interior:

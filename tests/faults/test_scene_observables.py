@@ -1,9 +1,12 @@
 """A file scene's own observables and references misused: ``observables.lines`` (outside the mesh, too few or
-too many points, wrong dimensions, a segment of length 0), probes outside the mesh, a ``reference`` to a
-column the scene does not have or with a bad tolerance; a restart whose line_NAME.csv is missing, foreign
-or damaged. Each is one line ``error: <key>: ...``, exit 2, no
-traceback, the --out folder byte for byte as it was (in-process: the CLI's ``main``; the mesh is the 2 x 1
-channel of tests/data/user_scene, level 0: setup-time cases cost one mesh read)."""
+too many points, wrong dimensions, a segment of length 0), probes and solid points with a coordinate count
+that is not the scene's (2 in 2D, 3 in 3D) or not finite, probes outside the mesh, ``observables.flow_rates``
+naming a facet group the file lacks or one twice, a ``reference`` to a column the scene does not have or with
+a bad tolerance; a restart whose line_NAME.csv is missing, foreign or damaged. Each is one line
+``error: <key>: ...``, exit 2, no traceback, the --out folder byte for byte as it was (in-process: the CLI's
+``main``; the mesh is the 2 x 1 channel of tests/data/user_scene, level 0: setup-time cases cost one mesh
+read; the 3D cases: the same scene with a geometry that says it is 3D, refused by the scene checks before the
+mesh is read)."""
 
 from __future__ import annotations
 
@@ -35,8 +38,9 @@ CASES = {  # --set -> the expected message (after "error: ")
     "line_points_overflow": ("observables.lines.L.points=" + "9" * 40, "observables.lines.L.points: must be <="),
     "line_points_float": ("observables.lines.L.points=2.5", "observables.lines.L.points: must be an integer"),
     "line_points_text": ("observables.lines.L.points=many", "observables.lines.L.points: must be an integer"),
-    "line_from_3d": ("observables.lines.L.from=[1.0, 0.0, 0.0]", "observables.lines.L.from: must have 2 entries"),
-    "line_to_1d": ("observables.lines.L.to=[1.0]", "observables.lines.L.to: must have 2 entries"),
+    "line_from_3d": ("observables.lines.L.from=[1.0, 0.0, 0.0]",
+                     "observables.lines.L.from: must have 2 coordinates [x, y] in a 2D scene (got 3)"),
+    "line_to_1d": ("observables.lines.L.to=[1.0]", "observables.lines.L.to: must have 2 or 3 coordinates"),
     "line_from_nan": ("observables.lines.L.from=[.nan, 0.0]", "observables.lines.L.from[0]: must be a finite number"),
     "line_from_text": ("observables.lines.L.from=[a, 0.0]", "observables.lines.L.from[0]: must be a number"),
     "line_zero_length": ("observables.lines.L.to=[1.0, 0.0]", "observables.lines.L.to: must differ from 'from'"),
@@ -49,6 +53,30 @@ CASES = {  # --set -> the expected message (after "error: ")
     "line_not_mapping": ("observables.lines.L=3", "observables.lines.L: must be a mapping"),
     "probe_outside": ("observables.points={C: [2.5, 0.5]}",
                       "observables.points.C: point (2.5, 0.5) is outside the mesh"),
+    "probe_3d_in_2d": ("observables.points={C: [1.0, 0.5, 0.0]}",
+                       "observables.points.C: must have 2 coordinates [x, y] in a 2D scene (got 3)"),
+    "probe_4_coordinates": ("observables.points={C: [1.0, 0.5, 0.0, 0.0]}",
+                            "observables.points.C: must have 2 or 3 coordinates ([x, y] in a 2D scene, [x, y, z] in "
+                            "3D; got 4)"),
+    "probe_1_coordinate": ("observables.points={C: [1.0]}", "observables.points.C: must have 2 or 3 coordinates"),
+    "probe_no_coordinates": ("observables.points={C: []}", "observables.points.C: must have 2 or 3 coordinates"),
+    "probe_nan": ("observables.points={C: [.nan, 0.5]}", "observables.points.C[0]: must be a finite number"),
+    "probe_inf_z": ("observables.points={C: [1.0, 0.5, .inf]}", "observables.points.C[2]: must be a finite number"),
+    "probe_text": ("observables.points={C: [1.0, up]}", "observables.points.C[1]: must be a number"),
+    "solid_point_4_coordinates": ("observables.solid_points={tip: [1.0, 0.5, 0.0, 0.0]}",
+                                  "observables.solid_points.tip: must have 2 or 3 coordinates"),
+    "solid_point_nan": ("observables.solid_points={tip: [1.0, .nan]}",
+                        "observables.solid_points.tip[1]: must be a finite number"),
+    "flow_rate_unknown": ("observables.flow_rates=[inlet, wall]",
+                          "observables.flow_rates[1]: channel.geo has no boundary facet group 'wall' (it has: bottom, "
+                          "inlet, outlet, top)"),
+    "flow_rate_interface": ("observables.flow_rates=[interface]",
+                            "observables.flow_rates[0]: channel.geo has no boundary facet group 'interface'"),
+    "flow_rate_twice": ("observables.flow_rates=[outlet, inlet, outlet]",
+                        'observables.flow_rates: "outlet" listed twice'),
+    "flow_rate_bad_name": ("observables.flow_rates=[out-let]",
+                           "observables.flow_rates: 'out-let': names are 1 to 40 letters"),
+    "flow_rate_not_list": ("observables.flow_rates=outlet", "observables.flow_rates: must be a list"),
     "ref_unknown_column": ("reference={drag: {value: 1.0, tolerance: 0.1}}",
                            "reference.drag: not a column of this scene's timeseries.csv"),
     "ref_time_column": ("reference={t: {value: 1.0, tolerance: 0.1}}",
@@ -92,6 +120,51 @@ def test_scene_observable_fault(main, setting, expected):
     assert code == 2 and len(lines) == 1 and "Traceback" not in err, (code, err)
     assert lines[0].startswith("error: " + expected.split(":")[0] + ":"), err  # names the key
     assert expected in lines[0], err
+
+
+CASES_3D = {  # a 3D scene's positions with 2 coordinates: --set ... -> the expected message (after "error: ")
+    "probe_2d_in_3d": (["observables.points={C: [1.0, 0.5]}"],
+                       "observables.points.C: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
+    "line_from_2d_in_3d": (["observables.lines.L.from=[1.0, 0.0]"],
+                           "observables.lines.L.from: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
+    "line_to_2d_in_3d": (["observables.lines.L.to=[1.0, 1.0]"],
+                         "observables.lines.L.to: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
+    "solid_point_2d_in_3d": (["solid={rho: 1.0, mu_s: 1.0}", "observables.solid_points={tip: [1.0, 0.5]}"],
+                             "observables.solid_points.tip: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
+    "probe_4_in_3d": (["observables.points={C: [1.0, 0.5, 0.5, 0.5]}"],
+                      "observables.points.C: must have 2 or 3 coordinates"),
+}
+
+
+@pytest.fixture
+def main3d(main, monkeypatch, tmp_path):
+    """``main`` on a scene whose geometry says it is 3D (``geometry.DIM``, which the scene validator reads;
+    the positions are checked before the mesh is read) and whose positions have 3 coordinates."""
+    from cosserat_fsi.geometry.file import FileGeometry
+
+    monkeypatch.setattr(FileGeometry, "DIM", 3)
+    (tmp_path / "scene.yaml").write_text(SCENE.replace("[1.0, 0.5]", "[1.0, 0.5, 0.5]").replace(
+        "[1.0, 0.0]", "[1.0, 0.0, 0.5]").replace("to: [1.0, 1.0]", "to: [1.0, 1.0, 0.5]").replace(
+        "(1 - y)', 0]", "(1 - y)', 0, 0]"))
+    return main
+
+
+@pytest.mark.parametrize("settings, expected", CASES_3D.values(), ids=CASES_3D)
+def test_scene_observable_fault_3d(main3d, settings, expected):
+    sets = [a for setting in settings for a in ("--set", setting)]
+    code, err = main3d("run", "scene.yaml", "--out", main3d.out, "--overwrite", *sets)
+    lines = err.splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, (code, err)
+    assert lines[0].startswith("error: " + expected.split(":")[0] + ":") and expected in lines[0], err
+
+
+def test_3d_positions_pass_the_validator(main3d, tmp_path):
+    """The 3D scene of ``main3d`` itself passes the scene checks: the cases above fail on their setting alone."""
+    from cosserat_fsi.config import load_scene
+
+    scene = load_scene(tmp_path / "scene.yaml")
+    assert scene.geometry.DIM == 3 and scene.observables.points["C"] == [1.0, 0.5, 0.5]
+    assert scene.observables.lines["L"].samples()[1].shape == (5, 3)
 
 
 def test_steady_scene_has_no_periodic_reference(main):

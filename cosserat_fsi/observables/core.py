@@ -1,4 +1,5 @@
-"""Observables of a run: forces on the body, point probes, derived benchmark coefficients.
+"""The observables of a run (:class:`Observables`): forces on the body, point A, a file scene's named
+probes, solid points, lines and flow rates, energies, flow rate, Δp, max |ω|, exact-solution errors.
 
 Every value is parallel-correct: integrals are summed over ranks, probes are evaluated by the rank that
 owns the point.
@@ -9,15 +10,15 @@ from __future__ import annotations
 import numpy as np
 from mpi4py import MPI
 
-from . import compat
-from .physics import fluid
-from .physics.stress import body_traction, cauchy_stress
-from .exact import EXACT_BENCHMARKS
-from .points.location import probe
-from .physics import materials
-from .physics.solid import elastic_energy_density
-from .errors import InputError
-from .tags import FLUID, SOLID
+from .. import compat
+from ..exact import EXACT_BENCHMARKS
+from ..physics import materials
+from ..physics.solid import elastic_energy_density
+from ..physics.stress import cauchy_stress
+from ..points.location import probe
+from ..tags import SOLID
+from . import named as own
+from .forces import force_columns, force_forms
 
 import dolfinx
 import ufl
@@ -54,33 +55,41 @@ class Observables:
                           if b in ids and self.comm.allreduce(int(np.any(ft.values == ids[b])), op=MPI.MAX))
         self._adaptive = getattr(scene.time, "tolerance", None) is not None
         self.columns = ["dt"] if self._adaptive else []  # the step's δt, chosen by time.tolerance
+        dim = mesh.geometry.dim
         self._force_forms = None
         if body_tags and scene.has_fluid:
-            self._force_forms = _force_forms(sim, u, T, n, ds, body_tags)
-            self.columns += ["drag", "lift", "drag_surface", "lift_surface"]
+            self._force_forms = force_forms(sim, u, T, n, ds, body_tags)
+            self.columns += force_columns(dim)
         self._node_A = None
         if sim.model.solid and scene.geometry.name in POINT_A:
             self._node_A = _owned_node(sim, _point_A(sim) if point_A is None else point_A)
             self._space_A = sim.velocity.function_space
             self.columns += ["ux_A", "uy_A"] + (["uz_A"] if mesh.geometry.dim == 3 else [])
         self._points = self._solid_points = None
+        micro = sim.model.micro_rotation
         if named is not None and named.points:
-            self._points = (list(named.points), np.array([[*xy, 0.0] for xy in named.points.values()]))
-            for name, xy in named.points.items():
-                _inside(sim, f"observables.points.{name}", np.array([[*xy, 0.0]]))
-            probed = ("u", "v", "p", "omega") if sim.model.micro_rotation else ("u", "v", "p")
-            self.columns += [f"{c}_{name}" for name in named.points for c in probed]
+            keys = [f"observables.points.{name}" for name in named.points]
+            points = np.array([own.point3(key, xy, dim) for key, xy in zip(keys, named.points.values())])
+            for key, x in zip(keys, points):
+                own.check_inside(sim, key, x[None, :])
+            self._points = (list(named.points), points)
+            self.columns += [f"{c}_{name}" for name in named.points for c in own.probe_columns(dim, micro)]
         if named is not None and named.solid_points:
+            for name, x in named.solid_points.items():
+                own.point3(f"observables.solid_points.{name}", x, dim)
             where = {**named.solid_points, **(solid_points or {})}
-            self._solid_points = {name: _nearest_solid_node(sim, np.asarray(where[name])) for name in
-                                  named.solid_points}
+            self._solid_points = {name: own.nearest_solid_node(sim, np.asarray(where[name], dtype=float)) for name
+                                  in named.solid_points}
             self._space_points = sim.velocity.function_space  # kept: after a remesh sim's is the new mesh's
-            self.columns += [f"{c}_{name}" for name in named.solid_points for c in ("ux", "uy")]
+            self.columns += [f"{c}_{name}" for name in named.solid_points for c in own.solid_point_columns(dim)]
         self.lines = {}  # name -> (column names, arc lengths, points (N, 3))
         for name, line in ((named.lines or {}).items() if named is not None else ()):
+            key = f"observables.lines.{name}"
+            for end, x in (("from", line.start), ("to", line.to)):
+                own.point3(f"{key}.{end}", x, dim)
             arc, xy = line.samples()
-            points = np.column_stack([xy, np.zeros(len(xy))])
-            _inside(sim, f"observables.lines.{name}", points)
+            points = np.column_stack([xy, np.zeros((len(xy), 3 - xy.shape[1]))])
+            own.check_inside(sim, key, points)
             self.lines[name] = (self._line_columns(), arc, points)
         self._energy_forms = None
         if sim.model.solid:
@@ -103,6 +112,8 @@ class Observables:
                 and self.comm.allreduce(int(np.any(ft.values == outlet)), op=MPI.MAX)):
             self._flow_rate = compat.form(ufl.inner(u, n) * ds(outlet))  # ∫_outlet u·n ds
             self.columns.append("flow_rate")
+        self._flow_rates = own.flow_rate_forms(sim, u, n, ds, named.flow_rates if named is not None else ())
+        self.columns += [f"flow_rate_{name}" for name in self._flow_rates]
         self._dp = scene.geometry.name in ("schaefer_turek", "schaefer_turek_3d")
         self._dp_points = (np.array([scene.geometry.describe()["points"][a] for a in ("a1", "a2")])
                            if scene.geometry.name == "schaefer_turek_3d" else DP_POINTS)
@@ -116,11 +127,7 @@ class Observables:
             self.columns += [f"{name}_error" for name in self._exact]
 
     def _line_columns(self) -> list[str]:
-        dim = self.sim.mesh.geometry.dim
-        columns = ["s", *"xyz"[:dim], *"uvw"[:dim], "p"]
-        if self.sim.model.micro_rotation:
-            columns += ["omega"] if dim == 2 else ["omega_x", "omega_y", "omega_z"]
-        return columns
+        return own.line_columns(self.sim.mesh.geometry.dim, self.sim.model.micro_rotation)
 
     def profiles(self) -> dict:
         """{line name: (N, columns) array} of the ``observables.lines`` at the current state. Collective."""
@@ -141,21 +148,24 @@ class Observables:
         if named is None:
             return out
         mesh, comm = self.sim.mesh, self.comm
-        for name, xy in named.points.items():
-            cell = int(self.sim.locator.locate(np.array([[*xy, 0.0]]), owned_only=True)[0])
+        dim = mesh.geometry.dim
+        for name, x in zip(*self._points) if self._points is not None else ():
+            cell = int(self.sim.locator.locate(x[None, :], owned_only=True)[0])
             imap = mesh.topology.index_map(mesh.topology.dim)
-            local = (imap.local_range[0] + cell, _cell_tag(self.sim, cell)) if cell >= 0 else (-1, "")
+            local = (imap.local_range[0] + cell, own.cell_tag(self.sim, cell)) if cell >= 0 else (-1, "")
             index, kind = max(comm.allgather(local))
-            out.append(f"probe {name} at ({xy[0]:.6g}, {xy[1]:.6g}): inside the mesh, {kind} cell {index}")
+            out.append(f"probe {name} at {own.text(x, dim)}: inside the mesh, {kind} cell {index}")
         for name, node in (self._solid_points or {}).items():
-            x = self._space_points.tabulate_dof_coordinates()[node, :2] if node >= 0 else np.zeros(2)
+            x = self._space_points.tabulate_dof_coordinates()[node, :dim] if node >= 0 else np.zeros(dim)
             x = comm.allreduce(x, op=MPI.SUM)
             asked = np.asarray(named.solid_points[name], dtype=float)
-            out.append(f"solid point {name} asked at ({asked[0]:.6g}, {asked[1]:.6g}): solid node at "
-                       f"({x[0]:.6g}, {x[1]:.6g}), {np.linalg.norm(x - asked):.3g} from it")
+            out.append(f"solid point {name} asked at {own.text(asked, dim)}: solid node at {own.text(x, dim)}, "
+                       f"{np.linalg.norm(x - asked):.3g} from it")
         for name, line in (named.lines or {}).items():
             out.append(f"line {name}: {line.points} points from {tuple(line.start)} to {tuple(line.to)}, all inside "
                        f"the mesh -> line_{name}.csv")
+        for name in self._flow_rates:
+            out.append(f"flow rate {name}: u·n over the facet group {name!r}, n outward -> flow_rate_{name}")
         return out
 
     def point_A_now(self) -> np.ndarray | None:
@@ -170,17 +180,17 @@ class Observables:
         """The current positions of the named solid points (their nodes, on the mesh as it is now)."""
         if self._solid_points is None:
             return None
-        coordinates = self._space_points.tabulate_dof_coordinates()
-        return {name: self.comm.allreduce(coordinates[node, :2] if node >= 0 else np.zeros(2), op=MPI.SUM).tolist()
-                for name, node in self._solid_points.items()}
+        coordinates, dim = self._space_points.tabulate_dof_coordinates(), self.sim.mesh.geometry.dim
+        return {name: self.comm.allreduce(coordinates[node, :dim] if node >= 0 else np.zeros(dim),
+                                          op=MPI.SUM).tolist() for name, node in self._solid_points.items()}
 
     def evaluate(self) -> dict:
         out = {"dt": self.sim.state.steps.last} if self._adaptive else {}
+        dim = self.sim.mesh.geometry.dim
         if self._force_forms is not None:
             forces = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._force_forms]
-            out.update(zip(("drag", "lift", "drag_surface", "lift_surface"), forces))
+            out.update(zip(force_columns(dim), forces))
         if self._node_A is not None:
-            dim = self.sim.mesh.geometry.dim
             d = self.sim.displacement.x.array.reshape(-1, dim)
             local = d[self._node_A] if self._node_A >= 0 else np.zeros(dim)
             out.update(zip(("ux_A", "uy_A", "uz_A"), self.comm.allreduce(local, op=MPI.SUM)))
@@ -189,22 +199,23 @@ class Observables:
             micro = self.sim.model.micro_rotation
             fields = [self.sim.velocity, self.sim.pressure] + ([self.sim.micro_rotation] if micro else [])
             values = probe(self.sim.locator, fields, points, self.comm)
-            u, p = values[0], values[1]
+            columns = own.probe_columns(dim, micro)
             for k, name in enumerate(names):
-                out[f"u_{name}"], out[f"v_{name}"], out[f"p_{name}"] = u[k, 0], u[k, 1], p[k, 0]
-                if micro:  # 2D: the scalar ω (3D: its z component)
-                    out[f"omega_{name}"] = values[2][k, -1]
+                out.update({f"{c}_{name}": v for c, v in zip(columns, own.probe_values(values, k, dim))})
         if self._solid_points is not None:
-            d = self.sim.displacement.x.array.reshape(-1, 2)
+            d = self.sim.displacement.x.array.reshape(-1, dim)
+            columns = own.solid_point_columns(dim)
             for name, node in self._solid_points.items():
-                local = d[node] if node >= 0 else np.zeros(2)
-                out[f"ux_{name}"], out[f"uy_{name}"] = self.comm.allreduce(local, op=MPI.SUM)
+                local = d[node] if node >= 0 else np.zeros(dim)
+                out.update({f"{c}_{name}": float(v) for c, v in zip(columns, self.comm.allreduce(local, op=MPI.SUM))})
         if self._energy_forms is not None:
             energies = [self.comm.allreduce(dolfinx.fem.assemble_scalar(f), op=MPI.SUM) for f in self._energy_forms]
             out.update(zip(("energy_kinetic", "energy_elastic", "energy_potential"), energies),
                        energy_total=sum(energies))
         if self._flow_rate is not None:
             out["flow_rate"] = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._flow_rate), op=MPI.SUM)
+        for name, form in self._flow_rates.items():
+            out[f"flow_rate_{name}"] = self.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM)
         if self._dp:
             p = probe(self.sim.locator, [self.sim.pressure], self._dp_points, self.comm)[0][:, 0]
             out["dp"] = float(p[0] - p[1])
@@ -238,24 +249,6 @@ def _exact_error_forms(sim) -> dict:
     return out
 
 
-def _inside(sim, key: str, points: np.ndarray) -> None:
-    """InputError naming ``key`` if a point is in no cell of any rank (outside the mesh). Collective."""
-    found = (sim.locator.locate(points, owned_only=True) >= 0).astype(np.int64)
-    hits = sim.comm.allreduce(found, op=MPI.SUM)
-    if not hits.all():
-        x = points[int(np.argmin(hits))]
-        raise InputError(f"{key}: point ({x[0]:.6g}, {x[1]:.6g}) is outside the mesh")
-
-
-def _cell_tag(sim, cell: int) -> str:
-    """'fluid' or 'solid': the subdomain of a local cell."""
-    tags = sim.cell_tags
-    if tags is None:
-        return "fluid"
-    where = np.flatnonzero(tags.indices == cell)
-    return "solid" if len(where) and tags.values[where[0]] == SOLID else "fluid"
-
-
 def _point_A(sim):
     """Point A: the flag's tip (0.6, 0.2) for Turek–Hron; (length, thickness/2) for the flag alone."""
     if sim.scene.geometry.name == "turek_hron":
@@ -279,89 +272,3 @@ def _owned_node(sim, point):
     if sim.comm.allreduce(int(found), op=MPI.SUM) != 1:
         raise RuntimeError(f"point A {tuple(point)} is not a vertex of the mesh")
     return i if found else -1
-
-
-def _nearest_solid_node(sim, point: np.ndarray) -> int:
-    """Local index of the owned solid velocity node nearest to ``point`` on the reference mesh (the one of
-    the lowest rank on a tie), −1 on the other ranks."""
-    V = sim.velocity.function_space
-    n_owned = V.dofmap.index_map.size_local
-    nodes = np.asarray(sim.problem.solid_velocity_dofs, dtype=np.int64)
-    nodes = nodes[nodes < n_owned]
-    x = V.tabulate_dof_coordinates()[nodes, :2]
-    dist = np.linalg.norm(x - point, axis=1)
-    i = int(np.argmin(dist)) if len(nodes) else -1
-    mine = float(dist[i]) if len(nodes) else np.inf
-    best = sim.comm.allgather(mine)
-    owner = int(np.argmin(best))
-    return int(nodes[i]) if sim.comm.rank == owner else -1
-
-
-def _force_forms(sim, u, T, n, ds, body_tags):
-    """Forms for (drag, lift) by the residual method and by the surface integral of −T n, fluid side.
-
-    With a solid flag the fluid–solid interface is interior: its traction is taken from the fluid cell
-    (χ_f = 1 on fluid cells), and the cylinder arc that clamps the flag is left out the same way.
-    """
-    phis = _body_test_functions(sim, body_tags)
-    traction = body_traction(T, n)
-    if not sim.model.solid:
-        residual = _momentum_residual(sim, u, T, ufl.dx(domain=sim.mesh))
-        surface = [traction[i] * ds(body_tags) for i in range(2)]
-    else:
-        chi = sim.problem.cellwise(1.0, 0.0)  # fluid indicator
-        dx_fluid = ufl.dx(domain=sim.mesh, subdomain_data=sim.cell_tags)(FLUID)
-        residual = _momentum_residual(sim, u, T, dx_fluid)
-        ids = sim.problem.facet_ids
-        dS = ufl.Measure("dS", domain=sim.mesh, subdomain_data=sim.facet_tags)
-        surface = [0 for _ in range(2)]
-        exterior = [tag for name, tag in ids.items() if tag in body_tags and name != "interface"]
-        for i in range(2):  # a file scene may lack either group
-            for tag in exterior:
-                surface[i] = surface[i] + chi * traction[i] * ds(tag)
-            if "interface" in ids and ids["interface"] in body_tags:
-                fluid_side = chi("+") * traction[i]("+") + chi("-") * traction[i]("-")
-                surface[i] = surface[i] + fluid_side * dS(ids["interface"])
-    return [compat.form(-residual(phi)) for phi in phis] + [compat.form(f) for f in surface]
-
-
-def _body_test_functions(sim, body_tags):
-    """φ_x, φ_y: P2 fields equal to e_x, e_y on the body's boundary nodes and 0 at all other nodes."""
-    V = sim.velocity.function_space
-    fdim = sim.mesh.topology.dim - 1
-    facets = sim.problem.facets(*(name for name, tag in sim.problem.facet_ids.items() if tag in body_tags))
-    phis = []
-    for i in range(2):
-        Vi, to_V = compat.collapse(V.sub(i))
-        dofs = dolfinx.fem.locate_dofs_topological((V.sub(i), Vi), fdim, facets)[0]
-        phi = dolfinx.fem.Function(V)
-        phi.x.array[dofs] = 1.0
-        phis.append(phi)
-    return phis
-
-
-def _momentum_residual(sim, u, T, dx):
-    """φ ↦ the momentum residual (eq. 20 stress form) of the step just taken, with the scheme's acceleration.
-
-    With φ = e_i on the body and 0 elsewhere it equals ∫_body T n·e_i ds (n out of the fluid), so
-    −residual(φ_i) is the force on the body: the variational ("residual") drag and lift, which converge
-    faster than the surface integral of T n.
-    """
-    if dx.subdomain_id() != "everywhere":  # restricted to the fluid cells
-        dxi = sim.dx_inertia(subdomain_data=sim.cell_tags)(dx.subdomain_id())
-    else:
-        dxi = sim.dx_inertia
-
-    def residual(phi):
-        return fluid.cauchy_momentum_residual(T, phi, rho=sim.problem.rho, acceleration=sim.acceleration(u),
-                                              body_force=sim.problem.body_force, dx=dx, dx_inertia=dxi)
-
-    return residual
-
-
-def schaefer_turek_coefficients(drag: float, lift: float, rho: float, u_mean: float, diameter: float = 0.1,
-                                span: float = 1.0):
-    """c_D = 2 F_D / (ρ Ū² D), c_L = 2 F_L / (ρ Ū² D) (Schäfer & Turek 1996); in 3D (3D-1Z) divided by the
-    cylinder's ``span`` H = 0.41 too: 2 F / (ρ Ū² D H) (data/three_d_references.yaml)."""
-    scale = 2.0 / (rho * u_mean**2 * diameter * span)
-    return drag * scale, lift * scale
