@@ -44,13 +44,21 @@ def measured(summary: dict, key: str):
 
 def not_applicable(case: Case, summary: dict | None = None) -> list[str]:
     """The defining keys in which the case's scene differs from the benchmark it names (config/benchmarks.py;
-    also a summary.json's ``benchmark.differs``): such a case's rows get no verdict ("n/a")."""
+    a summary.json's ``benchmark.differs`` when it says): such a case's rows get no verdict ("n/a")."""
     from cosserat_fsi.config import load_scene
     from cosserat_fsi.config.benchmarks import differences
+    from cosserat_fsi.errors import InputError
 
-    found = list(((summary or {}).get("benchmark") or {}).get("differs") or [])
-    scene = load_scene(ROOT / case.config, [app_cases.override(k, v) for k, v in case.overrides.items()])
-    return found or list(differences(scene))
+    bench = (summary or {}).get("benchmark") or {}
+    if "applicable" in bench:
+        return list(bench.get("differs") or [])
+    if case.measure is not None:  # an example: its own measurements, no benchmark
+        return []
+    try:
+        scene = load_scene(ROOT / case.config, [app_cases.override(k, v) for k, v in case.overrides.items()])
+    except InputError:  # no such scene file here: nothing to tell
+        return []
+    return list(differences(scene))
 
 
 def _without_verdict(rows: list[str]) -> list[str]:
