@@ -42,6 +42,37 @@ def measured(summary: dict, key: str):
     return entry.get(part) if part else entry
 
 
+def not_applicable(case: Case, summary: dict | None = None) -> list[str]:
+    """The defining keys in which the case's scene differs from the benchmark it names (config/benchmarks.py;
+    a summary.json's ``benchmark.differs`` when it says): such a case's rows get no verdict ("n/a")."""
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.config.benchmarks import differences
+    from cosserat_fsi.errors import InputError
+
+    bench = (summary or {}).get("benchmark") or {}
+    if "applicable" in bench:
+        return list(bench.get("differs") or [])
+    if case.measure is not None:  # an example: its own measurements, no benchmark
+        return []
+    try:
+        scene = load_scene(ROOT / case.config, [app_cases.override(k, v) for k, v in case.overrides.items()])
+    except InputError:  # no such scene file here: nothing to tell
+        return []
+    return list(differences(scene))
+
+
+def _without_verdict(rows: list[str]) -> list[str]:
+    """Earlier rows of a case that is not its benchmark's problem, their ``ok`` cell "n/a"."""
+    out = []
+    for row in rows:
+        cells = row.strip().strip("|").split("|")
+        if len(cells) == 12:
+            cells[9] = " n/a "
+            row = "|" + "|".join(cells) + "|"
+        out.append(row)
+    return out
+
+
 def previous_rows(report: Path) -> dict[str, list[str]]:
     """Rows of an earlier docs/validation.md, by case id: a case whose run folder is gone (a fresh
     checkout keeps only docs/runs/*/summary.json, and only for runs made since that was committed)
@@ -85,7 +116,8 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
     for case in cases:
         path = runs / case.id / "summary.json"
         if not path.exists():
-            rows += previous.get(case.id, [f"| {case.id} | – | – | – | not run | | | | | | | |"])
+            earlier = previous.get(case.id, [f"| {case.id} | – | – | – | not run | | | | | | | |"])
+            rows += _without_verdict(earlier) if case.id in previous and not_applicable(case) else earlier
             continue
         s = json.loads(path.read_text())
         mesh = f"L{s['mesh']['level']} ({s['mesh']['vertices']:,})"
@@ -98,9 +130,11 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
         status = "" if s["status"] == "completed" else f" ({s['status']})"
         found = observed(case, runs, s)
         if found is None:  # only summary.json is kept: the rows written when the run was there
-            rows += previous.get(case.id, [f"| {case.id} | – | – | – | not measured | | | | | | | |"])
+            earlier = previous.get(case.id, [f"| {case.id} | – | – | – | not measured | | | | | | | |"])
+            rows += _without_verdict(earlier) if case.id in previous and not_applicable(case, s) else earlier
             continue
         wall = f"{s['wall_time']['total']:.0f} | {s['wall_time']['per_step']:.3f} |"
+        judged = not not_applicable(case, s)  # another problem than the benchmark's: no verdict
         for key, tol in case.tolerances.items():
             m = found.get(key)
             fine = case.measure is not None
@@ -117,7 +151,7 @@ def table(cases, runs: Path, previous: dict | None = None) -> list[str]:
             ok = err is not None and abs(err) <= tol
             rows.append(f"| {case.id}{status} | {mesh} | {scheme} | {dt} | {key} | {m['value']:.6g} | "
                         f"{m['reference']:.6g} | {'–' if err is None else _percent(err, '+', 2, fine)} | {shown} | "
-                        f"{'yes' if ok else 'no'} | {wall}")
+                        f"{('yes' if ok else 'no') if judged else 'n/a'} | {wall}")
     return rows
 
 
@@ -181,12 +215,13 @@ def cheapest(cases, runs: Path, previous: dict | None = None) -> list[str]:
         found = observed(case, runs, s) if s is not None else None
         if found is not None:
             wall = s["wall_time"]["total"]
-            ok = s["status"] == "completed" and all(
+            ok = s["status"] == "completed" and not not_applicable(case, s) and all(
                 (m := found.get(key)) and m.get("error") is not None and abs(m["error"]) <= tol
                 for key, tol in case.tolerances.items() if tol is not None)
         elif case.id in previous:
             cells = [[c.strip() for c in r.strip().strip("|").split("|")] for r in previous[case.id]]
-            ok = bool(cells) and all(c[9] in ("yes", "–") and "(" not in c[0] for c in cells)
+            ok = (bool(cells) and all(c[9] in ("yes", "–") and "(" not in c[0] for c in cells)
+                  and not not_applicable(case))
             wall = float(cells[0][10]) if ok else 0.0
         else:
             continue
@@ -236,6 +271,9 @@ def write_report(cases, runs: Path, out: Path) -> Path:
         "Errors are relative; for periodic observables, mean / amplitude are (max ± min)/2 over the last",
         "full period and the frequency comes from the last periods (cosserat_fsi/analysis.py).",
         "drag and lift are the variational (residual) forces; `drag_surface` in timeseries.csv is ∫ T n.",
+        "An `ok` of `n/a`: the case solves another problem than its benchmark's (the incompressible law, another",
+        "clamp or μ_s: see \"Which scenes are a benchmark's problem\" below), so its numbers are shown beside the",
+        "reference without a verdict.",
         "",
         *table(cases, runs, previous),
         "",

@@ -113,7 +113,9 @@ def _reference(run_dir: Path) -> dict:
     try:  # no reference band when summary.json is missing, in progress or damaged
         summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
         name = summary.get("benchmark", {}).get("name")
-    except (OSError, ValueError, AttributeError):
+        if summary["benchmark"].get("applicable") is False:  # another problem: no reference band
+            return {}
+    except (OSError, ValueError, AttributeError, KeyError):
         return {}
     if name not in GEOMETRY_OF_BENCHMARK:
         return {}

@@ -23,6 +23,7 @@ from mpi4py import MPI
 from .. import __version__, compat
 from ..analysis import relative_error
 from ..config import Scene, dump_resolved
+from ..config.benchmarks import applicability
 from ..config.scene import condition_lines
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
@@ -37,6 +38,7 @@ from ..observables import Observables, schaefer_turek_coefficients
 from ..references import reference_for
 from ..simulation import Simulation
 from ..signals import signal_handlers
+from .cases import resolved_scene
 from .progress import advance as _advance, progress_bar as _progress_bar
 from .stop_signals import StopSignals
 from .verdict import check_reference, classify_signals, compare_with_scene_reference, time_summary
@@ -309,6 +311,7 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
         steps = max(sim.step_count, 1)
         summary = {
             "scene": scene.name,
+            "resolved_scene": resolved_scene(scene),  # what `study` and the campaigns compare (app/cases.py)
             "status": status,
             "message": message,
             "versions": {"cosserat_fsi": __version__, **compat.versions()},
@@ -348,10 +351,11 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
 
 
 def compare_with_reference(scene, summary: dict) -> dict:
-    """{observable: {value, reference, error}} for the scene's benchmark (relative errors)."""
+    """{observable: {value, reference, error}} for the scene's benchmark (relative errors), with ``applicable``
+(and the defining keys that differ: config/benchmarks.py)."""
     final = summary["final"]
     if scene.benchmark in EXACT_BENCHMARKS:  # errors against an exact solution: the reference is 0
-        out = {"name": scene.benchmark}
+        out = {"name": scene.benchmark, **applicability(scene)}
         for key in ("velocity", "micro_rotation"):
             if key + "_error" in final:
                 out[key] = {"value": final[key + "_error"], "reference": 0.0, "error": final[key + "_error"]}
@@ -362,7 +366,7 @@ def compare_with_reference(scene, summary: dict) -> dict:
         span = 0.41 if scene.benchmark == "schaefer_turek_3d1z" else 1.0  # 3D: the projected area D H
         computed["c_D"], computed["c_L"] = schaefer_turek_coefficients(
             final["drag"], final["lift"], scene.fluid.rho, scene.inflow.u_mean, span=span)
-    out = {"name": scene.benchmark}
+    out = {"name": scene.benchmark, **applicability(scene)}
     for key, reference in ref.items():
         if isinstance(reference, dict) and "frequency" in reference:
             analysis = summary["periodic"].get(key)

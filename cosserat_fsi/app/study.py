@@ -26,7 +26,12 @@ steps chosen by the controller from a first step of the scene's ``time.dt`` (aft
 An override ``null`` removes the key (e.g. a ``time.corrector_passes`` the scheme of the run does not take).
 ``config`` is relative to the study file (or absolute). Each run is a `cosserat-fsi run` into
 ``<out>/runs/study-<name>/<run id>/`` (``<out>``: ``--out``, default the current directory), through the
-campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume.
+campaigns' case runner (cosserat_fsi/app/cases.py): finished runs are not run again, interrupted ones resume;
+a run folder whose run was made with another scene than the study asks for now (its config.yaml, or its
+summary.json's ``resolved_scene``, against the study's config file with ``base`` and the run's overrides) is
+run again, and ``--report-only`` reports such a run as not the study's, without its numbers. A run whose
+scene is not its benchmark's problem (summary.json ``benchmark.applicable: false``) keeps its errors in the
+report, marked, and stays off the Pareto front.
 The report ``<out>/study_<name>.md`` has, per run, the error of every observable against the benchmark's
 reference, wall time, time per step, the per-phase times and the peak memory, and
 ``<out>/figures/study_<name>_pareto.png`` plots the worst error against wall time with the Pareto fronts of
@@ -167,9 +172,28 @@ def run_all(study: Study, study_path: Path, out: Path, jobs: int = 1) -> list[tu
     runs = out / "runs" / f"study-{study.name}"
     config = _config_path(study, study_path)
     todo = [(o, runs / run_id) for o, run_id in _combinations(study)]
-    cases.run_cases([cases.Case(config, folder, {"output.fields": False, **overrides}, study.ranks)
-                     for overrides, folder in todo], jobs)
+    cases.run_cases([_case(study, config, overrides, folder) for overrides, folder in todo], jobs, strict=True)
     return todo
+
+
+def _case(study: Study, config: Path, overrides: dict, folder: Path) -> cases.Case:
+    return cases.Case(config, folder, {"output.fields": False, **overrides}, study.ranks)
+
+
+UNRECORDED = "its folder does not record its scene"
+
+
+def other_scene(study: Study, config: Path, overrides: dict, folder: Path) -> str | None:
+    """Why the run in ``folder`` is not this study's run (made with another scene than the study asks for
+    now, or with a scene its folder does not record), or None when it is (or nothing ran there yet)."""
+    if not (folder / "summary.json").exists():
+        return None
+    changed = cases.scene_changes(_case(study, config, overrides, folder))
+    if changed is None:
+        return UNRECORDED
+    if changed:
+        return f"made with another scene: {', '.join(changed[:3])}{' ...' if len(changed) > 3 else ''} differ"
+    return None
 
 
 def _measure(study: Study, folder: Path) -> dict | None:
@@ -193,7 +217,10 @@ def _measured(study: Study, folder: Path, s: dict) -> dict:
     phases = s.get("wall_time", {}).get("phases", {})
     time = s.get("time", {})
     steps = max(time.get("steps", 1), 1)
+    bench = s.get("benchmark") or {}
     return {"status": s.get("status"), "errors": errors, "steps": int(time.get("steps", 0)),
+            "applicable": bench.get("applicable", True) is not False,
+            "differs": ", ".join(bench.get("differs") or []) + " differ" if bench.get("differs") else "",
             "tolerance": time.get("tolerance"), "rejected": int(time.get("rejected_steps", 0)),
             "wall": float(s["wall_time"]["total"]),
             "per_step": float(s["wall_time"]["per_step"]),
@@ -239,26 +266,38 @@ def fronts(points: list[tuple[float, float]], groups: list[str]) -> dict[str, li
     return out
 
 
-def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path) -> Path:
-    """Write ``<out>/study_<name>.md`` (and the Pareto plot) from the runs' summaries; returns its path."""
+def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config: Path | None = None) -> Path:
+    """Write ``<out>/study_<name>.md`` (and the Pareto plot) from the runs' summaries; returns its path.
+    ``config``: the study's scene file; a run made with another scene than the study asks for now is
+    reported as such, without its numbers; one whose folder does not record its scene (a summary.json
+    written before summaries held ``resolved_scene``) keeps its numbers, marked, off the Pareto front. A run
+    whose scene is not its benchmark's problem keeps its numbers (differences from a reference that does not
+    apply), marked, off the Pareto front."""
     rows, points, labels, groups = [], [], [], []
     head = ("| run | vertices | dofs | status | steps | " + " | ".join(f"error {k}" for k in study.observables)
             + " | wall (s) | s/step | " + " | ".join(PHASES) + " | peak memory (MiB) |")
     rows += [head, "|" + "---|" * (head.count("|") - 1)]
-    for _, folder in todo:
-        m = _measure(study, folder)
+    for overrides, folder in todo:
         run = folder.name
+        why = other_scene(study, config, overrides, folder) if config is not None else None
+        if why and why != UNRECORDED:
+            rows.append(f"| {run} | | | not this study's run ({why}) | |"
+                        + " |" * (len(study.observables) + 3 + len(PHASES)))
+            continue
+        m = _measure(study, folder)
         if m is None:
             rows.append(f"| {run} | | | not run | |" + " |" * (len(study.observables) + 3 + len(PHASES)))
             continue
         errs = [m["errors"][k] for k in study.observables]
         steps = f"{m['steps']}" + (f" ({m['rejected']} rejected)" if m["tolerance"] is not None else "")
-        rows.append(f"| {run} | {m['vertices']:,} | {m['dofs']:,} | {m['status']} | {steps} | "
+        state = m["status"] if m["applicable"] else f"{m['status']}; reference not applicable ({m['differs']})"
+        state += f" ({why})" if why else ""
+        rows.append(f"| {run} | {m['vertices']:,} | {m['dofs']:,} | {state} | {steps} | "
                     + " | ".join("–" if e is None else f"{100 * e:+.3g}%" for e in errs)
                     + f" | {m['wall']:.3g} | {m['per_step']:.4f} | "
                     + " | ".join(f"{m['phases'][p]:.4f}" for p in PHASES)
                     + f" | {'–' if m['memory'] is None else format(m['memory'], '.0f')} |")
-        if m["status"] == "completed" and all(e is not None for e in errs):
+        if m["status"] == "completed" and m["applicable"] and not why and all(e is not None for e in errs):
             points.append((m["wall"], max(abs(e) for e in errs)))
             labels.append(run)
             groups.append(GROUPS[m["tolerance"] is not None])
@@ -329,4 +368,4 @@ def main_study(path: str | Path, out: str | Path | None = None, jobs: int = 1, r
         raise InputError(f"--out: cannot write to {out} ({exc.strerror or exc})") from None
     todo = ([(o, out / "runs" / f"study-{study.name}" / run_id) for o, run_id in _combinations(study)]
             if report_only else run_all(study, study_path, out, jobs))
-    return write_report(study, todo, out)
+    return write_report(study, todo, out, _config_path(study, study_path))

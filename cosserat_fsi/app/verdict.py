@@ -8,8 +8,10 @@ analysis, so noise on a steady signal is not reported as an oscillation.
 :func:`verdict_lines` turns a summary into the lines printed at the end of ``cosserat-fsi run``: for a
 benchmark scene a table (quantity, value, reference, error, tolerance, pass/fail), then the headline
 observables (final value, or mean ± amplitude [frequency]; a file scene's named probes, solid points and flow
-rates too) and the wall time. A scene's own ``reference`` section (config/sections.py ``Reference``) gets the same
-table under ``reference: PASS|FAIL``.
+rates too) and the wall time. A scene that differs from its benchmark in a defining key (config/benchmarks.py)
+solves another problem: its table has "n/a" for every verdict under ``benchmark NAME: reference not
+applicable: KEY differs (VALUE; the benchmark: VALUE)``. A scene's own ``reference`` section
+(config/sections.py ``Reference``) gets the same table under ``reference: PASS|FAIL``.
 
 ``TOLERANCES``: the relative tolerance of each benchmark quantity (the bands of campaigns/validate.py;
 periodic parts as ``"lift.amplitude"``). Quantities without one are shown but not judged.
@@ -82,15 +84,47 @@ def _num(value) -> str:
     return "–" if value is None else f"{value:.6g}"
 
 
+BENCHMARK_KEYS = ("name", "applicable", "differs", "differences")
+"""The keys of summary.json's ``benchmark`` block that are not compared quantities."""
+
+
+def applicable(summary: dict) -> bool:
+    """The run solved its benchmark's problem (summary.json ``benchmark.applicable``; a summary without the
+    key counts as applicable)."""
+    return (summary.get("benchmark") or {}).get("applicable", True) is not False
+
+
+def not_applicable_text(bench: dict) -> str:
+    """``reference not applicable: solid.law differs (neo_hookean; the benchmark: saint_venant_kirchhoff)``,
+    with the number of defining keys that differ when more than one does."""
+    differs = list(bench.get("differs") or [])
+    if not differs:
+        return "reference not applicable"
+    first = differs[0]
+    values = (bench.get("differences") or {}).get(first) or {}
+    text = f"reference not applicable: {first} differs"
+    if values:
+        text += f" ({_value(values.get('scene'))}; the benchmark: {_value(values.get('benchmark'))})"
+    if len(differs) > 1:
+        text += f"; {len(differs)} defining keys differ: {', '.join(differs)}"
+    return text
+
+
+def _value(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
 def benchmark_rows(summary: dict) -> list[tuple]:
-    """(quantity, value, reference, error, tolerance, verdict) for each compared quantity."""
+    """(quantity, value, reference, error, tolerance, verdict) for each compared quantity; verdict "n/a" for
+    every row of a run whose scene is not its benchmark's problem."""
     bench = summary.get("benchmark") or {}
     name = bench.get("name")
     tolerances = TOLERANCES.get(name, {})
     exact = name in ("micropolar_poiseuille", "micropolar_taylor_green")
+    judged = applicable(summary)
     rows = []
     for key, entry in bench.items():
-        if key == "name":
+        if key in BENCHMARK_KEYS or not isinstance(entry, dict):
             continue
         parts = entry.items() if "value" not in entry else [(None, entry)]
         for part, e in parts:
@@ -101,7 +135,9 @@ def benchmark_rows(summary: dict) -> list[tuple]:
                 error_text = f"{err:.2e}" if err is not None else "–"
             else:
                 error_text = f"{100 * err:+.3f} %" if err is not None else "–"
-            if tol is None or err is None:
+            if not judged:
+                verdict = "n/a"
+            elif tol is None or err is None:
                 verdict = "–"
             else:
                 verdict = "pass" if abs(err) <= tol else "FAIL"
@@ -113,7 +149,7 @@ def benchmark_rows(summary: dict) -> list[tuple]:
         if label not in seen:
             state = signals.get(label.partition(".")[0], "no value")
             rows.append((f"{label} ({state})", "–", "–", "–", f"{100 * tol:g} %" if not exact else f"{tol:.0e}",
-                         "FAIL"))
+                         "FAIL" if judged else "n/a"))
     return rows
 
 
@@ -179,7 +215,10 @@ def verdict_lines(summary: dict) -> list[str]:
     """The closing lines of a run: benchmark table, headline observables, wall time."""
     lines = []
     rows = benchmark_rows(summary)
-    if rows:
+    if summary.get("benchmark") and not applicable(summary):  # another problem: values, no verdict
+        lines.append(f"benchmark {summary['benchmark']['name']}: {not_applicable_text(summary['benchmark'])}")
+        lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), rows) if rows else []
+    elif rows:
         bench = summary["benchmark"]["name"]
         judged = [r for r in rows if r[5] != "–"]
         ok = all(r[5] == "pass" for r in judged)

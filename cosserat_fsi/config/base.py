@@ -6,24 +6,12 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-GEOMETRY_OF_BENCHMARK = {
-    "schaefer_turek_2d1": ("schaefer_turek", None),
-    "schaefer_turek_2d2": ("schaefer_turek", None),
-    "schaefer_turek_3d1z": ("schaefer_turek_3d", None),
-    "turek_hron_cfd1": ("turek_hron", "rigid"),
-    "turek_hron_cfd2": ("turek_hron", "rigid"),
-    "turek_hron_cfd3": ("turek_hron", "rigid"),
-    "turek_hron_csm1": ("flag", None),
-    "turek_hron_csm2": ("flag", None),
-    "turek_hron_csm3": ("flag", None),
-    "turek_hron_fsi1": ("turek_hron", "solid"),
-    "turek_hron_fsi2": ("turek_hron", "solid"),
-    "turek_hron_fsi3": ("turek_hron", "solid"),
-    "seed_fsi3": ("turek_hron", "solid"),
-    "micropolar_poiseuille": ("channel", None),
-    "micropolar_taylor_green": ("square", None),
-}
-"""Benchmark name -> (required geometry.name, required geometry.flag or None)."""
+from .benchmarks import DEFINING
+
+GEOMETRY_OF_BENCHMARK = {name: (keys["geometry.name"], keys.get("geometry.flag"))
+                         for name, keys in DEFINING.items()}
+"""Benchmark name -> (required geometry.name, required geometry.flag or None): the geometry part of
+config/benchmarks.py's DEFINING, checked when the scene is read."""
 
 Benchmark = Literal[
     "schaefer_turek_2d1", "schaefer_turek_2d2", "schaefer_turek_3d1z",
