@@ -127,7 +127,7 @@ class Simulation:
         with self.timers("remesh"):
             remesh_msh(self.mesh, self.cell_tags, self.facet_tags, self._node_sizes(), self.problem.facet_ids,
                        path, self.comm)
-            mesh, cell_tags, facet_tags = compat.read_msh(path, self.comm, gdim=2)
+            mesh, cell_tags, facet_tags = compat.read_msh(path, self.comm, gdim=self.mesh.geometry.dim)
             if scratch:
                 self.comm.barrier()  # every rank has read it
                 if self.comm.rank == 0:
@@ -144,7 +144,7 @@ class Simulation:
         self.mesh_file = None if scratch else path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
                   "quality_after": self.motion.min_fluid_quality, "seconds": time.perf_counter() - start,
-                  "cells": mesh.topology.index_map(2).size_global, "mesh": path.name}
+                  "cells": mesh.topology.index_map(mesh.topology.dim).size_global, "mesh": path.name}
         self.remeshes.append(record)
         for callback in self.on_remesh:
             callback(self, record)
@@ -158,12 +158,12 @@ class Simulation:
         m = self.motion
         if getattr(m, "mesh_size", None) is not None:
             return m.node_sizes()
-        x = self.mesh.geometry.x[:, :2].copy()
-        self.mesh.geometry.x[:, :2] = m.X0
+        x = self.mesh.geometry.x[:, :m.dim].copy()
+        self.mesh.geometry.x[:, :m.dim] = m.X0
         try:
             m.mesh_size = _vertex_sizes(self.mesh)
         finally:
-            self.mesh.geometry.x[:, :2] = x
+            self.mesh.geometry.x[:, :m.dim] = x
         return m.node_sizes()
 
     def _adopt(self, mesh, cell_tags, facet_tags) -> None:

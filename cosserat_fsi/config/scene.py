@@ -145,11 +145,6 @@ class Scene(_Section):
                 dim == 2 or "initial_velocity" in self.solid.model_fields_set):
             raise ValueError(f"solid.initial_velocity: needs {dim} components for the {dim}D geometry {geo.name} "
                              f"(got {len(self.solid.initial_velocity)})")
-        if dim == 3 and self.solid is not None and self.solid.mesh_motion.remesh is not None:
-            what = (f"geometry.path {geo.path.rsplit('/', 1)[-1]} holds a 3D mesh" if geo.name == "file"
-                    else f"geometry {geo.name} is 3D")
-            raise ValueError(f"solid.mesh_motion.remesh: remeshing is 2D only ({what}; the 3D mesh motion runs "
-                             "without it)")
         if dim == 2 and isinstance(m.body_couple, list):
             raise ValueError("micropolar.body_couple: a number in 2D (the couple along e_z; got a list)")
         if self.benchmark == "micropolar_poiseuille" and not (m.mu_r > 0 and m.lambda1 > 0):

@@ -305,7 +305,8 @@ def cell_quality(mesh, orientation: np.ndarray | None = None) -> np.ndarray:
 
 
 def _vertex_sizes(mesh):
-    """P1 function: the mean length of each vertex's edges over all its cells, on the current mesh.
+    """P1 function: the mean length of each vertex's edges over all its cells (triangles or tetrahedra; an
+    edge counts once per cell it belongs to), on the current mesh.
 
     Summed over the owned cells of each rank and then added across ranks (ghost update), so a vertex on a
     partition boundary gets the same size as in a serial run (the remeshed mesh must not depend on the
@@ -313,10 +314,12 @@ def _vertex_sizes(mesh):
     V = compat.function_space(mesh, "Lagrange", 1)
     size = dolfinx.fem.Function(V, name="mesh_size")
     total, count = dolfinx.fem.Function(V), dolfinx.fem.Function(V)
-    owned = mesh.topology.index_map(mesh.topology.dim).size_local
-    x = mesh.geometry.x[:, :2]
-    nodes, dofs = compat.geometry_dofmap(mesh)[:owned, :3], compat.cell_dofs(V)[:owned, :3]
-    for a, b in ((0, 1), (1, 2), (2, 0)):
+    d = mesh.topology.dim
+    owned = mesh.topology.index_map(d).size_local
+    x = mesh.geometry.x[:, :d]
+    nodes, dofs = compat.geometry_dofmap(mesh)[:owned, :d + 1], compat.cell_dofs(V)[:owned, :d + 1]
+    edges = ((0, 1), (1, 2), (2, 0)) if d == 2 else ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+    for a, b in edges:
         length = np.linalg.norm(x[nodes[:, a]] - x[nodes[:, b]], axis=1)
         for end in (a, b):
             np.add.at(total.x.array, dofs[:, end], length)

@@ -20,7 +20,7 @@ from ..points.location import PointLocator, values_anywhere
 
 def interpolator(comm=MPI.COMM_WORLD) -> Callable:
     """``interpolate(target, source)``: ``target`` ← ``source`` (Functions on different meshes). Collective."""
-    locators = {}
+    locators, located = {}, {}
 
     def point_values(source, points: np.ndarray) -> np.ndarray:
         mesh = source.function_space.mesh
@@ -34,6 +34,6 @@ def interpolator(comm=MPI.COMM_WORLD) -> Callable:
         return values
 
     def interpolate(target, source) -> None:
-        compat.interpolate_nonmatching(target, source, point_values)
+        compat.interpolate_nonmatching(target, source, point_values, located)
 
     return interpolate

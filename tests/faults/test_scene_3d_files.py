@@ -139,9 +139,8 @@ CASES = {  # (file name, its text, extra YAML, the message's start after "error:
                       "m.geo: ", "boundary facets are in no physical group (the first near (1, "),
     "solid_section_no_volumes": ("m.geo", BOX + NAMES, BND + SOLID, "solid: m.geo has no solid cells", None),
     "solid_volumes_no_section": ("m.geo", BLOCK + BLOCK_CELLS, BND, "solid: missing section (m.geo has ", None),
-    "remesh_3d": ("m.geo", BLOCK + BLOCK_CELLS, BND + "solid: {rho: 1.0, mu_s: 100.0, mesh_motion: {remesh: "
-                  "{quality: 0.2}}}\n", "solid.mesh_motion.remesh: remeshing is 2D only (geometry.path m.geo holds "
-                  "a 3D mesh", None),
+    "remesh_quality_1": ("m.geo", BLOCK + BLOCK_CELLS, BND + "solid: {rho: 1.0, mu_s: 100.0, mesh_motion: {remesh: "
+                         "{quality: 1.0}}}\n", "solid.mesh_motion.remesh.quality: ", None),
     "fails_to_mesh": ("m.geo", """Point(1) = {0,0,0,0.2}; Point(2) = {1,0,0,0.2}; Point(3) = {1,1,0,0.2};
 Point(4) = {0,1,0,0.2}; Point(5) = {0.5,0.5,1,0.2};
 Line(1) = {1,2}; Line(2) = {2,3}; Line(3) = {3,4}; Line(4) = {4,1}; Line(5) = {1,5}; Line(6) = {2,5};
