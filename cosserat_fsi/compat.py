@@ -238,11 +238,6 @@ def versions() -> dict:
     }
 
 
-def atan2(y, x):
-    """UFL's two-argument arctangent: ``ufl.atan_2`` (ufl 2022) or ``ufl.atan2`` (newer)."""
-    return (ufl.atan2 if hasattr(ufl, "atan2") else ufl.atan_2)(y, x)
-
-
 def option_used(name: str) -> bool:
     """Whether PETSc's options database entry ``name`` (without the dash) has been read by an object.
     petsc4py 3.18 (Debian) has no ``Options.used``: PetscOptionsUsed from the library petsc4py links."""

@@ -60,6 +60,20 @@ def read_regular(path: str | os.PathLike, what: str = "file", prefix: str = "", 
         raise InputError(f"{prefix}{path}: could not read ({exc.strerror or exc.__class__.__name__})") from None
 
 
+def read_json(path: str | os.PathLike, what: str = "file", max_bytes: int = 16 << 20):
+    """The JSON value of a small regular file (:func:`read_regular`: a FIFO or a device refused, never waited
+    on); InputError naming it if it cannot be read, is too large or is not JSON."""
+    import json
+
+    data = read_regular(path, what, max_bytes=max_bytes)
+    if len(data) > max_bytes:
+        raise InputError(f"{path}: larger than {max_bytes >> 10} KiB (not a {what}?)")
+    try:
+        return json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError):
+        raise InputError(f"{path}: not a {what} (damaged?)") from None
+
+
 def refuse_link(path: str | os.PathLike, prefix: str = "--out: ", folder: bool = False) -> None:
     """InputError if the output name ``path`` is taken by a link (even a dangling one) or by something that
     is not a regular file (``folder``: not a folder); nothing is written through a link out of the run folder."""

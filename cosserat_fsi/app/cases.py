@@ -27,6 +27,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import InputError
+from ..files import read_json
+
 FINISHED = ("completed", "diverged")
 
 
@@ -86,7 +89,6 @@ def _ran(folder: Path) -> dict | None:
     ``resolved_scene``; None when it has neither. InputError naming the folder when its config.yaml is not
     a scene (not a case's own run: it is not replaced)."""
     from cosserat_fsi.config import load_scene
-    from cosserat_fsi.errors import InputError
 
     path = folder / "config.yaml"
     if path.exists():
@@ -96,8 +98,8 @@ def _ran(folder: Path) -> dict | None:
             raise InputError(f"{folder}: holds a run whose config.yaml is not a scene of this version ({exc}); "
                              "not replaced: move the folder away to run it again") from None
     try:
-        summary = json.loads((folder / "summary.json").read_text())
-    except (OSError, ValueError):
+        summary = read_json(folder / "summary.json", "summary file")
+    except InputError:
         return None
     found = summary.get("resolved_scene") if isinstance(summary, dict) else None
     return found if isinstance(found, dict) else None
@@ -134,8 +136,8 @@ def status(case: Case, strict: bool = False) -> str:
         return "start"
     if summary.exists():
         try:
-            done = json.loads(summary.read_text())
-        except (OSError, ValueError):  # damaged: run it again (--overwrite below)
+            done = read_json(summary, "summary file")
+        except InputError:  # damaged: run it again (--overwrite below)
             done = {}
         done = done if isinstance(done, dict) else {}
         if done.get("status") == "diverged":

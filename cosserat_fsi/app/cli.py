@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import json
 import math
 import logging
 import platform
@@ -25,6 +24,7 @@ from cosserat_fsi.app.failure import (Context, RunLog, check_utf8_arguments, ins
 from cosserat_fsi.cache import check_caches
 from cosserat_fsi.config import load_scene
 from cosserat_fsi.errors import DivergenceError, InputError
+from cosserat_fsi.files import read_json
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -147,8 +147,8 @@ def _say_how_it_did(out: Path, comm, summary: dict | None = None):
 
     if summary is None:
         try:
-            summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            summary = read_json(out / "summary.json", "summary file")
+        except InputError:
             return
     try:
         for line in verdict_lines(summary):

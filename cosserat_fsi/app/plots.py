@@ -10,7 +10,6 @@ global) and needs no display.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -18,6 +17,7 @@ import numpy as np
 
 from ..config import GEOMETRY_OF_BENCHMARK
 from ..errors import InputError
+from ..files import read_json
 
 
 def _save(write, path: Path) -> None:
@@ -111,11 +111,11 @@ class Fields:
 
 def _reference(run_dir: Path) -> dict:
     try:  # no reference band when summary.json is missing, in progress or damaged
-        summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+        summary = read_json(run_dir / "summary.json", "summary file")
         name = summary.get("benchmark", {}).get("name")
         if summary["benchmark"].get("applicable") is False:  # another problem: no reference band
             return {}
-    except (OSError, ValueError, AttributeError, KeyError):
+    except (InputError, AttributeError, KeyError, TypeError):
         return {}
     if name not in GEOMETRY_OF_BENCHMARK:
         return {}

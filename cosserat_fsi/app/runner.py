@@ -22,7 +22,7 @@ from mpi4py import MPI
 
 from .. import __version__, compat
 from ..analysis import relative_error
-from ..config import Scene, dump_resolved
+from ..config import Scene, as_scene, dump_resolved
 from ..config.benchmarks import applicability
 from ..config.scene import condition_lines
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
@@ -68,8 +68,8 @@ def _build_checked(scene: Scene) -> Path:
 
 def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
               restart: bool = False, commit: Callable[[], None] | None = None) -> dict:
-    """Run ``scene`` and write its outputs into ``out_dir`` (created if missing); returns the summary (also
-    summary.json).
+    """Run ``scene`` (a Scene, or a mapping validated as a scene file's content) and write its outputs into
+    ``out_dir`` (created if missing); returns the summary (also summary.json).
 
     ``restart``: continue the run in ``out_dir`` from its checkpoint (same scene up to time.t_end and
     output): the time series and fields after the checkpoint are dropped and rewritten; field steps
@@ -84,6 +84,7 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
     summary.json says ``completed``, ``diverged``, ``interrupted`` or ``failed``. Every rank-0-only step
     shares its outcome with the other ranks (``parallel``).
     """
+    scene = as_scene(scene, "run_scene")
     out_dir = Path(out_dir)
     wall0 = time.perf_counter()
     handlers = signal_handlers()

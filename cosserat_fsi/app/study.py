@@ -103,8 +103,9 @@ def load_study(path: str | Path) -> Study:
         raise InputError(f"{path}: config: {study.config} not found")
     for section, names in (("variants", study.variants), ("extra", study.extra)):
         for name in names:
-            if not name or not all(c.isalnum() or c in "_.-" for c in name):
-                raise InputError(f"{path}: {section}.{name}: a name of letters, digits, '_', '.', '-'")
+            if not name or name in (".", "..") or not all(c.isalnum() or c in "_.-" for c in name):
+                raise InputError(f"{path}: {section}.{name}: a name of letters, digits, '_', '.', '-' (a folder's "
+                                 "name in the study's folder: not . or ..)")
     for where, value in [*(("base." + k, v) for k, v in study.base.items()),
                          *((f"ladder.{k}", v) for k, vs in study.ladder.items() for v in vs),
                          *((f"variants.{n}.{k}", v) for n, o in study.variants.items() for k, v in o.items()),
@@ -202,7 +203,7 @@ def _measure(study: Study, folder: Path) -> dict | None:
         return None
     try:
         return _measured(study, folder, s)
-    except (KeyError, TypeError, ValueError, AttributeError):
+    except (KeyError, TypeError, ValueError, AttributeError, OverflowError):  # OverflowError: int(inf)
         raise InputError(f"{folder / 'summary.json'}: not the summary of a cosserat-fsi run (damaged?)") from None
 
 
@@ -225,8 +226,13 @@ def _measured(study: Study, folder: Path, s: dict) -> dict:
             "wall": float(s["wall_time"]["total"]),
             "per_step": float(s["wall_time"]["per_step"]),
             "phases": {p: float(phases.get(p, 0.0)) / steps for p in PHASES},
-            "memory": (s.get("memory") or {}).get("peak_rss_mib_sum"), "vertices": int(s["mesh"]["vertices"]),
+            "memory": _number((s.get("memory") or {}).get("peak_rss_mib_sum")), "vertices": int(s["mesh"]["vertices"]),
             "dofs": int(s["dofs"]["total"])}
+
+
+def _number(value) -> float | None:
+    """None as it is, else a float (ValueError/TypeError for anything that is not a number)."""
+    return None if value is None else float(value)
 
 
 def read_summary(folder: Path) -> dict | None:
@@ -297,7 +303,8 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
                     + f" | {m['wall']:.3g} | {m['per_step']:.4f} | "
                     + " | ".join(f"{m['phases'][p]:.4f}" for p in PHASES)
                     + f" | {'–' if m['memory'] is None else format(m['memory'], '.0f')} |")
-        if m["status"] == "completed" and m["applicable"] and not why and all(e is not None for e in errs):
+        if (m["status"] == "completed" and m["applicable"] and not why and all(e is not None for e in errs)
+                and all(map(math.isfinite, [m["wall"], *errs]))):  # nan/inf are shown, kept off the front
             points.append((m["wall"], max(abs(e) for e in errs)))
             labels.append(run)
             groups.append(GROUPS[m["tolerance"] is not None])

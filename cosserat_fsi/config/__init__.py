@@ -16,7 +16,7 @@ from __future__ import annotations
 from cosserat_fsi.io.safe_yaml import YamlLoader, describe_yaml_error, read_text_file, yaml_load
 
 from .base import GEOMETRY_OF_BENCHMARK, MAX_COUNT, MAX_STEPS, Benchmark, NonNegFloat, PositiveFloat
-from .loading import load_scene, validate_geometry, validate_scene
+from .loading import as_scene, load_scene, validate_geometry, validate_scene
 from .physics import Fluid, Inflow, MeshMotionSettings, Micropolar, Remesh, Solid
 from .scene import Scene, dump_resolved
 from .sections import BoundaryCondition, Expr, ObservableSet, Output, Point
@@ -29,5 +29,5 @@ __all__ = [
     "BoundaryCondition", "Characteristics1", "Characteristics2", "Expr", "Fluid", "GeneralizedAlpha", "Inflow",
     "MeshMotionSettings", "Micropolar", "NonNegFloat", "ObservableSet", "Output", "Point", "PositiveFloat",
     "Remesh", "Scene", "Solid", "Solver", "Steady", "Time", "YamlLoader", "describe_yaml_error", "dump_resolved",
-    "load_scene", "read_text_file", "validate_geometry", "validate_scene", "yaml_load",
+    "as_scene", "load_scene", "read_text_file", "validate_geometry", "validate_scene", "yaml_load",
 ]

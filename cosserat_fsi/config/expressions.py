@@ -8,12 +8,15 @@ expressions, e.g. ``where(t < 1, t, 1)``; a comparison is allowed only there. Py
 the text (``ast.parse(mode="eval")``, no compile, no eval); the tree is then walked with an explicit whitelist
 of node types and names: anything else (an attribute, a subscript, a call of another name, a lambda, a string,
 a keyword argument, a boolean operator, ...) is refused with one line, and nothing of the text is ever executed.
-Numbers are IEEE doubles: ``1/0``, ``10**400``, ``exp(1000)`` evaluate to inf, and the boundary code refuses
-values that are not finite (``finite_at``).
+Numbers are IEEE doubles and every operation has IEEE semantics: ``1/0`` is inf, ``atan(1/0)`` is π/2,
+``2.0**5000`` is inf and ``min(0, 2.0**5000)`` 0, ``sqrt(-1)`` and ``log(-1)`` are nan, and ``where`` computes both
+branches and keeps the one its condition picks (``where(t > 1000, log(0), 0)`` is 0 before t = 1000). A literal
+that is no double (``1e400``, an integer of 400 digits) is refused at parse. The boundary code refuses values
+that are not finite where they are used (``finite_at``, problem/data.py).
 
-The same tree is evaluated with numpy (``evaluate(x, t)``, for interpolating Dirichlet data into a
-Function) or built as a UFL expression (``to_ufl(x, t)`` with x the SpatialCoordinate and t a Constant,
-for weak terms such as a traction). Light module: no dolfinx/ufl import at import time.
+One evaluation: ``evaluate(x, t)``, numpy with every floating-point error ignored, gives the values of every
+condition (velocity, pressure, traction, ω), interpolated into a Function (problem/data.py); the checks use the
+same evaluation. Light module: no dolfinx/ufl import at import time.
 """
 
 from __future__ import annotations
@@ -71,7 +74,7 @@ class Expression:
         import numpy as np
 
         n = x.shape[1]
-        env = {"x": x[0], "y": x[1], "z": x[2], "t": float(t), "pi": math.pi}
+        env = {"x": x[0], "y": x[1], "z": x[2], "t": np.float64(t), "pi": np.float64(math.pi)}  # numpy scalars: IEEE
         funcs = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
                  "atan": np.arctan, "atan2": np.arctan2, "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
                  "exp": np.exp, "log": np.log, "sqrt": np.sqrt, "abs": np.abs, "min": np.minimum,
@@ -85,20 +88,6 @@ class Expression:
         import numpy as np
 
         return bool(np.all(np.isfinite(self.evaluate(x, t))))
-
-    def to_ufl(self, x, t):
-        """The UFL expression for spatial coordinate ``x`` and time ``t`` (a Constant)."""
-        import ufl
-
-        env = {"x": x[0], "y": x[1], "z": x[2] if len(x) > 2 else 0.0, "t": t, "pi": math.pi}
-        from cosserat_fsi import compat
-
-        funcs = {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "asin": ufl.asin, "acos": ufl.acos,
-                 "atan": ufl.atan, "atan2": compat.atan2, "sinh": ufl.sinh, "cosh": ufl.cosh, "tanh": ufl.tanh,
-                 "exp": ufl.exp, "log": ufl.ln, "sqrt": ufl.sqrt, "abs": abs, "min": ufl.min_value,
-                 "max": ufl.max_value, "where": ufl.conditional, "num": float,
-                 "cmp": {"<": ufl.lt, "<=": ufl.le, ">": ufl.gt, ">=": ufl.ge, "==": ufl.eq, "!=": ufl.ne}}
-        return _build(self.tree, env, funcs)
 
 
 def _compare(op):
@@ -117,9 +106,10 @@ def parse(text: Any) -> Expression:
     if isinstance(text, bool):
         raise ExpressionError(f"must be a number or an expression string (got {text!r})")
     if isinstance(text, (int, float)):
-        if not math.isfinite(text):
-            raise ExpressionError(f"must be a finite number (got {text!r})")
-        return Expression(repr(float(text)), ("num", float(text)))
+        value = _double(text)
+        if value is None:
+            raise ExpressionError(f"must be a finite number (got {_short(text)})")
+        return Expression(repr(value), ("num", value))
     if not isinstance(text, str):
         raise ExpressionError(f"must be a number or an expression string (got {type(text).__name__})")
     if len(text) > MAX_LENGTH:
@@ -136,13 +126,34 @@ def parse(text: Any) -> Expression:
     return Expression(text, _walk(node.body, text, 0))
 
 
+_BIGGEST = 1.7976931348623157e308
+
+
+def _double(number) -> float | None:
+    """The finite double of a literal (an int of any size or a float), or None if it has none."""
+    try:
+        value = float(number)
+    except OverflowError:  # an int beyond the doubles (float(10**400))
+        return None
+    return value if math.isfinite(value) else None
+
+
+def _short(text) -> str:
+    """``text`` for a one-line message (at most 60 characters of it)."""
+    if isinstance(text, int):
+        return f"an integer of about {int(abs(text).bit_length() * 0.30103) + 1} digits"
+    text = repr(text) if isinstance(text, str) else str(text)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _walk(node: ast.AST, text: str, depth: int) -> tuple:
     if depth > MAX_DEPTH:
         raise ExpressionError(f"expression nested deeper than {MAX_DEPTH} levels")
     if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-        if not math.isfinite(node.value):
-            raise ExpressionError(f"number out of range in {text!r}")
-        return ("num", float(node.value))
+        value = _double(node.value)
+        if value is None:
+            raise ExpressionError(f"number out of range (beyond ±{_BIGGEST:.4g}) in {_short(text)}")
+        return ("num", value)
     if isinstance(node, ast.Name):
         if node.id in SYMBOLS:
             return ("sym", node.id)

@@ -232,6 +232,17 @@ def validate_scene(data: Any, source: str = "config") -> Scene:
         raise InputError(_one_line(exc)) from None
 
 
+def as_scene(value: Any, caller: str) -> Scene:
+    """A Scene as it is, a mapping validated (:func:`validate_scene`, InputError if it is no scene); TypeError
+    for anything else, naming ``caller``."""
+    if isinstance(value, Scene):
+        return value
+    if isinstance(value, dict):
+        return validate_scene(value, "scene")
+    raise TypeError(f"{caller}: the scene must be a Scene (load_scene, validate_scene) or a dict, not "
+                    f"{type(value).__name__}")
+
+
 _GEOMETRY = TypeAdapter(Geometry)
 
 

@@ -69,6 +69,7 @@ class Scene(_Section):
     @classmethod
     def _micro_values(cls, data):
         precheck_micro_values(data)
+        precheck_path_length(data)
         return data
 
     @model_validator(mode="after")
@@ -195,6 +196,25 @@ class Scene(_Section):
     def to_yaml(self) -> str:
         """The fully resolved scene (all defaults filled in) as YAML that ``load_scene`` accepts."""
         return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False, default_flow_style=False)
+
+
+NAME_MAX, PATH_MAX = 255, 4095
+"""Bytes of one file name and of a whole path that Linux file systems take."""
+
+
+def precheck_path_length(data) -> None:
+    """``geometry.path`` of a raw scene within NAME_MAX / PATH_MAX, checked before the models so that the
+    error names the key (the operating system refuses a longer name where the file is looked up)."""
+    geometry = data.get("geometry") if isinstance(data, dict) else None
+    path = geometry.get("path") if isinstance(geometry, dict) else None
+    if not isinstance(path, str):
+        return
+    longest = max((len(part.encode("utf-8", "surrogateescape")) for part in path.split("/")), default=0)
+    size = len(path.encode("utf-8", "surrogateescape"))
+    if longest > NAME_MAX or size > PATH_MAX:
+        what = (f"a name of {longest} bytes, at most {NAME_MAX}" if longest > NAME_MAX
+                else f"{size} bytes, at most {PATH_MAX}")
+        raise ValueError(f"geometry.path: file name too long ({what}; got {_short(path)})")
 
 
 def condition_lines(scene: Scene, conditions: dict, micro: bool) -> list[str]:

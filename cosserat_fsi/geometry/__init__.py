@@ -26,6 +26,7 @@ import functools
 import hashlib
 import json
 import logging
+import math
 import os
 import pathlib
 import sys
@@ -141,6 +142,7 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     when complete, so the cache never holds a partial mesh (temporaries of dead processes are removed).
     """
     name, level, full = geometry.name, geometry.level, geometry.msh_params()
+    gmsh_timeout()  # a bad $COSSERAT_FSI_GMSH_TIMEOUT is refused whether or not the mesh is cached
     keyed = {k: v for k, v in full.items() if not (name == "file" and k == "path")}  # a file: by content
     key = json.dumps({"name": name, "level": level, "params": keyed, "version": BUILDER_VERSION,
                       "gmsh": gmsh_version()}, sort_keys=True)
@@ -186,12 +188,19 @@ GMSH_TIMEOUT = 1800.0
 """Seconds gmsh may take to mesh one geometry (``$COSSERAT_FSI_GMSH_TIMEOUT`` overrides it)."""
 
 
-def _gmsh_timeout() -> float:
+def gmsh_timeout() -> float:
+    """``$COSSERAT_FSI_GMSH_TIMEOUT`` (unset: GMSH_TIMEOUT); InputError unless a finite number of seconds > 0."""
+    text = os.environ.get("COSSERAT_FSI_GMSH_TIMEOUT")
+    if text is None:
+        return GMSH_TIMEOUT
     try:
-        value = float(os.environ.get("COSSERAT_FSI_GMSH_TIMEOUT", GMSH_TIMEOUT))
+        value = float(text)
     except ValueError:
-        raise InputError("COSSERAT_FSI_GMSH_TIMEOUT: must be a number of seconds") from None
-    return value if value > 0 else GMSH_TIMEOUT
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"COSSERAT_FSI_GMSH_TIMEOUT: must be a finite number of seconds > 0 (got {text[:40]!r}; "
+                         f"unset: {GMSH_TIMEOUT:g})")
+    return value
 
 
 def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
@@ -205,7 +214,8 @@ def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
 
     package_root = str(pathlib.Path(__file__).resolve().parents[2])  # the child runs in a folder of its own
     env["PYTHONPATH"] = os.pathsep.join(p for p in (package_root, env.get("PYTHONPATH")) if p)
-    request = json.dumps({"name": name, "level": level, "params": full, "out": os.path.abspath(tmp)})
+    request = json.dumps({"name": name, "level": level, "params": full, "out": os.path.abspath(tmp),
+                          "parent": os.getpid()})  # the child dies with this process (its __main__.py)
     with tempfile.TemporaryDirectory(prefix="cosserat-fsi-gmsh-") as cwd:  # what a .geo writes stays there
         _wait_gmsh(subprocess.Popen([sys.executable, "-m", "cosserat_fsi.geometry", request], env=env, cwd=cwd,
                                     stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT),
@@ -215,7 +225,7 @@ def _run_gmsh(name, level, full, tmp: pathlib.Path) -> None:
 def _wait_gmsh(proc, name, level, full, tmp: pathlib.Path) -> None:
     import subprocess
 
-    limit = _gmsh_timeout()
+    limit = gmsh_timeout()
     try:
         output, _ = proc.communicate(timeout=limit)
     except subprocess.TimeoutExpired:  # a .geo that never finishes meshing (or one far too fine)

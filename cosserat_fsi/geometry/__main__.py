@@ -2,16 +2,33 @@
 meshes one geometry with gmsh into ``out``. Exit 0 on success; on failure one line on stdout and exit 1."""
 
 import json
+import os
 import signal
 import sys
 
 from . import _MODULES, _gmsh
 
 
+def die_with_parent(parent: int | None) -> None:
+    """End this process when the run that started it ends, even by SIGKILL: on Linux the kernel sends it
+    SIGKILL when its parent dies (prctl PR_SET_PDEATHSIG); a parent that died before that was set is seen
+    as a changed parent pid, and this process exits at once."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # another C library: only the pid check below
+            pass
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)
+
+
 def main(request: str) -> int:
     """Build the mesh the JSON ``request`` describes."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)  # the parent cleans up; die at once
     spec = json.loads(request)
+    die_with_parent(spec.get("parent"))
+    signal.signal(signal.SIGINT, signal.SIG_DFL)  # the parent cleans up; die at once
     module = _MODULES[spec["name"]]
     scale = module.SEED_SCALE if spec["level"] == "seed" else 2.0 ** -spec["level"]
     import gmsh

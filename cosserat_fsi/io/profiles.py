@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, OutputError
+from ..files import read_regular
 
 
 def profile_path(run_dir: Path, name: str) -> Path:
@@ -26,11 +27,11 @@ def check_profile(path: Path, columns: list[str], t: float, prefix: str = "") ->
     """The byte offset just after the last complete row of ``path`` at a time <= ``t`` (the checkpoint's);
     InputError naming the file if it is missing, foreign or damaged before that offset."""
     try:
-        data = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{prefix}{path} is missing") from None
+        if not os.path.lexists(path):
+            raise InputError(f"{prefix}{path} is missing")
     except OSError as exc:
         raise InputError(f"{prefix}{path}: cannot read ({exc.strerror or exc})") from None
+    data = read_regular(path, "profile", prefix)  # a FIFO or a folder: refused without blocking
     header = (",".join(["t", *columns]) + "\n").encode()
     if not data.startswith(header):
         raise InputError(f"{prefix}{path} has other columns than this scene's line ({','.join(['t', *columns])})")

@@ -31,7 +31,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import InputError, OutputError
-from ..files import refuse_link
+from ..files import read_json, refuse_link
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -254,9 +254,9 @@ def _read_holder(fd: int) -> dict:
 
 def _status_of(out: Path) -> str:
     try:
-        status = json.loads((out / "summary.json").read_text(encoding="utf-8")).get("status")
+        status = read_json(out / "summary.json", "summary file").get("status")
         return f" ({status})" if isinstance(status, str) and len(status) < 20 else ""
-    except (OSError, ValueError, AttributeError):
+    except (InputError, AttributeError):
         return ""
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from cosserat_fsi import compat  # before dolfinx
 from cosserat_fsi.errors import InputError, OutputError
 from cosserat_fsi.io.runfolder import atomic_write_text
-from cosserat_fsi.files import check_free_space
+from cosserat_fsi.files import check_free_space, read_regular
 from cosserat_fsi.parallel import failpoint, on_root, share
 import dolfinx.fem
 
@@ -121,7 +121,8 @@ class MovingMeshXDMF:
         import re
 
         try:
-            times = [float(t) for t in re.findall(r'<Time Value="([^"]+)"', self.path.read_text())]
+            text = read_regular(self.path, "fields file").decode("utf-8", "replace")  # a FIFO: refused, not waited on
+            times = [float(t) for t in re.findall(r'<Time Value="([^"]+)"', text)]
             self.h5 = h5py.File(self.h5path, "a")
             stored = sorted(f"mesh/{n}" for n in self.h5["mesh"] if n.startswith("topology"))
             same = [n for n in stored if np.array_equal(self.h5[n][:], topology)]

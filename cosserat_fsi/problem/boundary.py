@@ -6,8 +6,9 @@ and a rigid flag; the inflow profile × ramp at the inlet, with the optional ant
 moving lid of the cavity). With an exact solution: its values on every tagged boundary but the outlet.
 Where ``micropolar.wall_condition: half_curl`` the wall value of ω is weak (Problem.residual) and has no
 Dirichlet condition here; ``micro_rotation: {value: EXPR}`` is a Dirichlet condition on ω. Every expression of
-a boundaries section (values, pressures, tractions, ω values) is evaluated at the boundary's dof points: not
-finite at the start is an InputError (exit 2), at a later update a DivergenceError (exit 3). A boundary of
+a boundaries section (values, pressures, tractions, ω values) is evaluated one way (problem/data.py): numpy
+into a Function, checked finite on the boundary's dofs; not finite at the start is an InputError (exit 2), at
+a later update a DivergenceError (exit 3). A boundary of
 type ``slip`` (Nitsche, Problem.slip) has no Dirichlet condition either; its facets are only checked here.
 """
 
@@ -18,10 +19,10 @@ from collections.abc import Callable
 import numpy as np
 from mpi4py import MPI
 
-from .. import compat
-from ..errors import DivergenceError, InputError
+from ..errors import InputError
 from ..parallel import raise_if_any
 from ..tags import SOLID
+from .data import BoundaryData, weak_data
 from .model import Problem
 
 import dolfinx
@@ -39,7 +40,7 @@ class BoundaryConditions:
         self.space = space if space is not None else problem.space
         self.bcs: list = []
         self._updates: list[Callable[[float], None]] = []
-        self._checks: list[tuple] = []  # (key, expression, points) of a boundaries section's data
+        self._data: dict[str, list[BoundaryData]] = {}  # the Dirichlet data of a boundaries section by name
         weak = problem.half_curl_walls()
         micro = problem.model.micro_rotation
         if exact is not None:
@@ -48,8 +49,8 @@ class BoundaryConditions:
             if micro:
                 self._add("micro_rotation", [b for b in boundary if b not in weak], exact=exact.micro_rotation)
             return
-        self._check_data(problem.conditions())
         self._named(problem.conditions(), micro)
+        self._check_data(problem.conditions())
         solid_pressure = problem.solid_pressure_condition(self.space)  # a compressible solid: p = 0 inside
         if solid_pressure is not None:
             self.bcs.append(solid_pressure)
@@ -61,7 +62,7 @@ class BoundaryConditions:
         self._add("velocity", self.problem.no_slip_boundaries())
         for name, bc in boundaries.items():
             if bc.type == "velocity":
-                self._add("velocity", (name,), expressions=bc.expressions())
+                self._add("velocity", (name,), data=self._data_of(name, "value", "velocity"))
         for name, bc in boundaries.items():
             if bc.type == "slip":
                 self._slip(name)
@@ -72,33 +73,30 @@ class BoundaryConditions:
             wall = self.problem.scene.micropolar.wall_condition
             for name, bc in boundaries.items():  # (run.log lists every boundary's condition: scene.condition_lines)
                 if bc.micro(wall) == "value":
-                    self._add("micro_rotation", (name,), expressions=bc.micro_rotation.expressions())
+                    self._add("micro_rotation", (name,),
+                              data=self._data_of(name, "micro_rotation.value", "micro_rotation"))
+
+    def _data_of(self, name: str, prefix: str, space_name: str) -> BoundaryData:
+        """The BoundaryData (problem/data.py) of the expressions ``prefix`` of boundary ``name`` on the
+        sub-space ``space_name``."""
+        data = {f"boundaries.{name}.{k}": e for k, e in self.problem.conditions()[name].all_expressions().items()
+                if k == prefix or k.startswith(prefix + "[")}
+        self._data[name] = self._data.get(name, []) + [BoundaryData(self.space.space(space_name),
+                                                                    self.problem.facets(name), data, self.comm)]
+        return self._data[name][-1]
 
     def _check_data(self, boundaries) -> None:
-        """The expressions of ``boundaries`` finite at the start (exit 2 if not); the time-dependent ones
-        are checked again at every :meth:`update` (exit 3)."""
+        """Every expression of ``boundaries`` evaluated at the start into the values its condition uses
+        (problem/data.py; the tractions' and pressures' are the problem's): not finite on the boundary is an
+        InputError (exit 2). :meth:`update` refreshes the time-dependent ones (not finite: exit 3)."""
         scene = self.problem.scene
         start = steady_time(scene) if scene.time.scheme == "steady" else 0.0
-        sp, fdim = self.space, self.problem.mesh.topology.dim - 1
-        V0, _ = compat.collapse(sp.sub("velocity").sub(0))
-        coordinates = V0.tabulate_dof_coordinates()
         for name, bc in boundaries.items():
-            data = bc.all_expressions()
-            if not data:
-                continue
-            dofs = dolfinx.fem.locate_dofs_topological(V0, fdim, self.problem.facets(name))
-            points = coordinates[dofs].T
-            for sub, expression in data.items():
-                self._checks.append((f"boundaries.{name}.{sub}", expression, points))
-        self._check(start, InputError, everything=True)
-
-    def _check(self, t: float, error, everything: bool = False) -> None:
-        for key, expression, points in self._checks:
-            if not (everything or expression.time_dependent):
-                continue
-            bad = not expression.finite_at(points, t) if points.shape[1] else False
-            raise_if_any(self.comm, bad, error(f"{key}: {expression.text!r} is not finite on the boundary at "
-                                               f"t = {t!r} (an overflow or a division by zero)"))
+            data = list(self._data.get(name, ()))
+            if bc.type in ("traction", "pressure"):
+                data.append(weak_data(self.problem, name))
+            for item in data:
+                item.fill(start, InputError)
 
     def _slip(self, name: str) -> None:
         """Slip is weak (Problem.slip, Nitsche): no Dirichlet condition; its facets must be on the boundary of
@@ -121,27 +119,19 @@ class BoundaryConditions:
 
     def update(self, t: float) -> None:
         """Set the time-dependent boundary values to time ``t`` (DivergenceError if they are not finite)."""
-        self._check(t, DivergenceError)
+        for data in (item for items in self._data.values() for item in items):
+            data.update(t)
         for update in self._updates:
             update(t)
 
-    def _add(self, space_name, facet_names, exact=None, expressions=None):
+    def _add(self, space_name, facet_names, exact=None, data: BoundaryData | None = None):
         """One condition on the sub-space ``space_name``: the ``exact(x, t)`` data, a boundaries section's
-        ``expressions`` (its value: [EXPR, EXPR] in x, y, z, t; one for ω in 2D), or zero."""
+        ``data`` (its value: [EXPR, EXPR] in x, y, z, t; one for ω in 2D), or zero."""
         sp = self.space
         Vs = sp.space(space_name)
-        g = dolfinx.fem.Function(Vs)
+        g = data.g if data is not None else dolfinx.fem.Function(Vs)
         if exact is not None:
             self._updates.append(lambda t: g.interpolate(lambda x: exact(x, t)))
-        if expressions is not None:  # a boundaries section's value: [EXPR, EXPR] in x, y, z, t
-
-            def fill(t, g=g, expressions=expressions):
-                g.interpolate(lambda x: np.vstack([e.evaluate(x, t) for e in expressions])
-                              if len(expressions) > 1 else expressions[0].evaluate(x, t))
-
-            fill(0.0)
-            if any(e.time_dependent for e in expressions):
-                self._updates.append(fill)
         fdim = self.problem.mesh.topology.dim - 1
         dofs = dolfinx.fem.locate_dofs_topological((sp.sub(space_name), Vs), fdim,
                                                    self.problem.facets(*facet_names))

@@ -17,6 +17,7 @@ from mpi4py import MPI
 from .. import compat
 from ..physics import fluid, materials, solid
 from ..tags import FACET_TAGS, FLUID, SOLID
+from .data import weak_data
 from .slip_normal import smoothed_normal
 from .spaces import MixedSpace, mixed_space
 
@@ -97,7 +98,8 @@ class Problem:
             self.dx_solid_law = ufl.dx(domain=mesh, subdomain_data=cell_tags,
                                        metadata={"quadrature_degree": 4})(SOLID)
         self._source_updates: list[Callable[[float], None]] = []
-        self.time = self.constant(0.0)  # t in the expressions of a boundaries section (update_sources)
+        self.time = self.constant(0.0)  # t of the time-dependent sources (update_sources)
+        self._weak_data: dict = {}  # the tractions' and pressures' values by name (weak_data)
         self._coefficients(exact)
         # DG0: 1 in the fluid cells, 0 in the solid ones (a scene with a solid), else None
         self.fluid_cells = self.cellwise(1.0, 0.0) if self.model.solid else None
@@ -184,6 +186,8 @@ class Problem:
     def update_sources(self, t: float) -> None:
         """Set the time-dependent coefficients (gravity ramp, manufactured sources) to time ``t``."""
         self.time.value = t
+        for data in self._weak_data.values():
+            data.update(t)
         for update in self._source_updates:
             update(t)
 
@@ -268,19 +272,18 @@ class Problem:
         return self.micro_rotation_boundaries("half_curl")
 
     def traction(self, v) -> ufl.Form | None:
-        """−∫ g·v ds over the boundaries of type traction (g their ``value``, an expression of x and t) and
+        """−∫ g·v ds over the boundaries of type traction (g their ``value``, expressions of x and t) and
         +∫ p̂ n·v ds over those of type pressure (the natural condition σn = −p̂ n, p̂ their ``value``), or
-        None."""
+        None. g and p̂: their expressions interpolated into P2 (problem/data.py's weak_data)."""
         named = [(name, bc) for name, bc in self.conditions().items() if bc.type in ("traction", "pressure")]
         if not named:
             return None
         ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.facet_tags)
-        x = ufl.SpatialCoordinate(self.mesh)
         n = ufl.FacetNormal(self.mesh)
         form = None
         for name, bc in named:
-            values = [e.to_ufl(x, self.time) for e in bc.expressions()]
-            g = -values[0] * n if bc.type == "pressure" else ufl.as_vector(values)
+            values = weak_data(self, name).g
+            g = -values * n if bc.type == "pressure" else values
             term = -ufl.inner(g, v) * ds(self.facet_ids[name])
             form = term if form is None else form + term
         return form

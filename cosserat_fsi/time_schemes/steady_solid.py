@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 
 from .. import compat
-from ..errors import InputError
+from ..errors import DivergenceError, InputError
 from ..physics import lagrangian
 from ..tags import FLUID, SOLID
 from ..problem.boundary import BoundaryConditions
@@ -117,6 +117,19 @@ class SteadySolid(SteadyStepper):
             vertex = dolfinx.fem.Function(m.M)
             vertex.interpolate(state.displacement)
             m.displacement.x.array[:] = vertex.x.array
-            m.place(vertex.x.array, t)
+            try:
+                m.place(vertex.x.array, t)
+            except DivergenceError as exc:  # the moving mesh's advice is for a time step, which is not here
+                raise DivergenceError(steady_advice(str(exc))) from None
             self.locator.update()
         return report
+
+
+TIME_STEP_ADVICE = "; try a smaller time.dt, or the deformation is too large for a moving mesh"
+
+
+def steady_advice(message: str) -> str:
+    """A moving mesh's failure (mesh/motion.py) with advice for a steady scene, which has no time step."""
+    head = message.split(TIME_STEP_ADVICE)[0]
+    return (f"{head}: the steady deformation is too large for a moving mesh (a smaller load, a stiffer solid "
+            "or a time-dependent scheme)")
