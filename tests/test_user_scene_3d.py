@@ -160,7 +160,6 @@ def test_facet_group_inside_the_domain(tmp_path):
     assert _measure(mesh, facets, "ds", names["facets"]["walls"]) == pytest.approx(1.6, abs=1e-12)
     data = scene.model_dump(mode="json")
     data.update(boundaries=None, inflow={"u_mean": 1.0})  # conditions by name: none for "mid"
-    data["fluid"].pop("body_force")  # (dumped as the 2-component default, which a 3D scene refuses when given)
     cells = dolfinx.mesh.meshtags(mesh, 3, np.arange(mesh.topology.index_map(3).size_local, dtype=np.int32),
                                   np.ones(mesh.topology.index_map(3).size_local, dtype=np.int32))
     problem = Problem(validate_scene(data), mesh, cells, facets, facet_ids=names["facets"])

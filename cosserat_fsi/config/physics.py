@@ -17,7 +17,8 @@ class Fluid(_Section):
     mu: PositiveFloat
     """Dynamic viscosity μ (Pa·s)."""
     body_force: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # one per dimension
-    """Body force per unit volume f (N/m³), one component per dimension (3 in 3D)."""
+    """Body force per unit volume f (N/m³), one component per dimension (3 in 3D); not given: zero, with the
+    scene's dimension (the resolved scene, config.yaml, says [0.0, 0.0, 0.0] in 3D)."""
     viscous_form: Literal["laplacian", "symmetric"] = "laplacian"
     """``laplacian``: (μ + μ_r) ∇u:∇ũ, whose natural outflow condition is the benchmarks' do-nothing μ ∂u/∂n −
     p n = 0; ``symmetric``: the seed's ½ (μ + μ_r) Du:Dũ (eq. 23), natural condition (μ Du − p I) n = 0. Both
@@ -126,7 +127,8 @@ class Solid(_Section):
     one-step correction feeds back on itself. Part of the discrete problem: for a δt study set it ≥ the
     largest δt/α, so that every run solves the same one."""
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # 3 in 3D
-    """Uniform initial velocity of the solid (m/s), e.g. to start a free vibration; 3 components in 3D."""
+    """Uniform initial velocity of the solid (m/s), e.g. to start a free vibration; 3 components in 3D (not
+    given: zero, with the scene's dimension)."""
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
     """How the fluid mesh follows the solid."""
 

@@ -138,12 +138,11 @@ class Scene(_Section):
                 raise ValueError(f"benchmark: {self.benchmark} needs geometry.flag {need_flag} (got {flag!r})")
         m = self.micropolar
         dim = geo.DIM
-        if self.fluid is not None and len(self.fluid.body_force) != dim and (
-                dim == 2 or "body_force" in self.fluid.model_fields_set):
+        _resolve_vectors(self, dim)
+        if self.fluid is not None and len(self.fluid.body_force) != dim:
             raise ValueError(f"fluid.body_force: needs {dim} components for the {dim}D geometry {geo.name} "
                              f"(got {len(self.fluid.body_force)})")
-        if self.solid is not None and len(self.solid.initial_velocity) != dim and (
-                dim == 2 or "initial_velocity" in self.solid.model_fields_set):
+        if self.solid is not None and len(self.solid.initial_velocity) != dim:
             raise ValueError(f"solid.initial_velocity: needs {dim} components for the {dim}D geometry {geo.name} "
                              f"(got {len(self.solid.initial_velocity)})")
         if dim == 2 and isinstance(m.body_couple, list):
@@ -243,6 +242,15 @@ def dump_resolved(scene: Scene, conditions: list[str] | None = None) -> str:
         text += ("# boundaries, as resolved from the geometry's preset (a comment: only a file scene takes a "
                  "boundaries section):\n" + "".join(f"#   {line}\n" for line in conditions))
     return text
+
+
+def _resolve_vectors(scene: Scene, dim: int) -> None:
+    """A vector left at its default (zero) gets one component per dimension of the scene: ``fluid.body_force``
+    and ``solid.initial_velocity`` are [0, 0, 0] in 3D, so that the resolved scene (config.yaml) names the
+    vector the scene runs with and loads again as it is."""
+    for section, key in ((scene.fluid, "body_force"), (scene.solid, "initial_velocity")):
+        if section is not None and key not in section.model_fields_set:
+            setattr(section, key, [0.0] * dim)
 
 
 def _check_step_control(time) -> None:

@@ -310,8 +310,10 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> dict[str, A
         raise _Refused(f"geometry.path: gmsh could not mesh {shown} (no cells in its fluid and solid groups)")
     if len(f_kinds | s_kinds) > 1:  # dolfinx reads one cell type per mesh
         raise _Refused(f"{path}: mixed cell types (triangle and quadrilateral) are not supported")
+    topo.check_nodes(gmsh, shown)
     if D == 2:
         topo.check_plane(gmsh, shown)
+    topo.check_cells(gmsh, D, fluid_ents + solid_ents, shown)
     boundary, inside, interface = topo.split_facets(f_facets, s_facets)
     rows = {name: topo.facet_rows(gmsh, D, entities([tag], D - 1)) for name, tag in facet_groups.items()}
     if "interface" in facet_groups and len(interface) and not np.array_equal(rows["interface"], interface):

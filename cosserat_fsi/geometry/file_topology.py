@@ -128,6 +128,53 @@ def check_plane(gmsh, shown: str) -> None:
                       f"{z.max():.4g}); a 2D scene lies in the x-y plane (3D cells: Physical Volume)")
 
 
+def check_nodes(gmsh, shown: str) -> None:
+    """Refused if a node has a coordinate that is not a finite number (``nan``, ``inf`` in a .msh)."""
+    tags, x, _ = gmsh.model.mesh.getNodes()
+    x = np.asarray(x, dtype=float).reshape(-1, 3)
+    bad = np.flatnonzero(~np.isfinite(x).all(axis=1))
+    if len(bad):
+        where = ", ".join(f"{c:.4g}" for c in x[bad[0]])
+        more = f"; {len(bad)} nodes have one" if len(bad) > 1 else ""
+        raise Refused(f"geometry.path: {shown}: node {int(tags[bad[0]])} has a coordinate that is not a finite number "
+                      f"({where}){more}")
+
+
+def check_cells(gmsh, dim: int, entities, shown: str) -> None:
+    """Refused if a cell has no area (2D) or volume (3D) for its size: its nodes on one line or in one plane, as
+    in a mesh whose nodes all lie in one plane but that names its cells a volume. Each cell is measured against
+    its own longest node distance, so refined cells of any size pass."""
+    tags, x, _ = gmsh.model.mesh.getNodes()
+    row = np.zeros(int(np.max(tags, initial=0)) + 1, dtype=np.int64)
+    row[np.asarray(tags, dtype=np.int64)] = np.arange(len(tags))
+    x = np.asarray(x, dtype=float).reshape(-1, 3)
+    flat, total, first = 0, 0, None
+    for e in entities:
+        types, _, nodes = gmsh.model.mesh.getElements(dim, e)
+        for etype, enodes in zip(types, nodes):
+            k = CELL_TYPES[dim][int(etype)]
+            p = x[row[np.asarray(enodes, dtype=np.int64)]].reshape(-1, k, 3)
+            edges = p[:, 1:] - p[:, :1]
+            if dim == 3:
+                measure = np.abs(np.linalg.det(edges)) / 6.0
+            else:  # the shoelace formula, triangles and quadrangles (in the plane z = 0: check_plane)
+                measure = np.abs(np.sum(p[:, :, 0] * np.roll(p[:, :, 1], -1, axis=1)
+                                        - np.roll(p[:, :, 0], -1, axis=1) * p[:, :, 1], axis=1)) / 2.0
+            size = np.zeros(len(p))
+            for i in range(k):
+                for j in range(i + 1, k):
+                    size = np.maximum(size, np.linalg.norm(p[:, i] - p[:, j], axis=1))
+            bad = np.flatnonzero(measure <= 1e-10 * size**dim)
+            flat, total = flat + len(bad), total + len(p)
+            if len(bad) and first is None:
+                first = p[bad[0]].mean(axis=0)[:dim]
+    if flat:
+        word, what = ("tetrahedra", "volume") if dim == 3 else ("cells", "area")
+        raise Refused(f"geometry.path: {shown}: {flat} of {total} {word} have no {what} (the first near "
+                      f"({', '.join(f'{c:.4g}' for c in first)})): their nodes lie in one "
+                      f"{'plane' if dim == 3 else 'line'}")
+
+
 def count_cells(gmsh, dim: int, entities) -> int:
     return int(sum(len(tags) for e in entities for tags in gmsh.model.mesh.getElements(dim, e)[1]))
 

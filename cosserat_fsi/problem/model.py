@@ -129,9 +129,9 @@ class Problem:
         rho_f = s.fluid.rho if s.fluid is not None else 0.0
         self.mu = self.constant(s.fluid.mu if s.fluid is not None else 0.0)
         gdim = self.mesh.geometry.dim
-        body = np.zeros(gdim, dtype=PETSc.ScalarType)  # config checks the length (3D: default [0, 0] → f = 0)
+        body = np.zeros(gdim, dtype=PETSc.ScalarType)
         if s.fluid is not None:
-            body[:len(s.fluid.body_force)] = s.fluid.body_force
+            body[:] = s.fluid.body_force  # one component per dimension (config/scene.py)
         self.mu_s = self.lambda_s = None
         if model.solid:
             self.rho = self.cellwise(rho_f, s.solid.rho)

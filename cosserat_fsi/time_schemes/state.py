@@ -144,7 +144,7 @@ class State:
         if problem.model.solid and any(scene.solid.initial_velocity):
             values = self.velocity.x.array.reshape(-1, problem.mesh.geometry.dim)
             given = np.zeros(values.shape[1])
-            given[:len(scene.solid.initial_velocity)] = scene.solid.initial_velocity  # 3D default [0, 0]: z = 0
+            given[:] = scene.solid.initial_velocity  # one component per dimension (config/scene.py)
             values[problem.solid_velocity_dofs] = given
             fixed = dolfinx.fem.locate_dofs_topological(self.velocity.function_space,
                                                         problem.mesh.topology.dim - 1,

@@ -2,11 +2,13 @@
 too many points, wrong dimensions, a segment of length 0), probes and solid points with a coordinate count
 that is not the scene's (2 in 2D, 3 in 3D) or not finite, probes outside the mesh, ``observables.flow_rates``
 naming a facet group the file lacks or one twice, a ``reference`` to a column the scene does not have or with
-a bad tolerance; a restart whose line_NAME.csv is missing, foreign or damaged. Each is one line
+a bad tolerance; forces on a facet group the file lacks or one inside the domain; a restart whose line_NAME.csv
+is missing, foreign or damaged. Each is one line
 ``error: <key>: ...``, exit 2, no traceback, the --out folder byte for byte as it was (in-process: the CLI's
 ``main``; the mesh is the 2 x 1 channel of tests/data/user_scene, level 0: setup-time cases cost one mesh
-read; the 3D cases: the same scene with a geometry that says it is 3D, refused by the scene checks before the
-mesh is read)."""
+read; the 3D cases: a real 3D file, tests/data/user_scene/halves_box.geo: wrong coordinate counts are refused by
+the scene checks before the mesh is read, positions outside the mesh and unknown or inside facet groups at
+setup)."""
 
 from __future__ import annotations
 
@@ -122,31 +124,59 @@ def test_scene_observable_fault(main, setting, expected):
     assert expected in lines[0], err
 
 
-CASES_3D = {  # a 3D scene's positions with 2 coordinates: --set ... -> the expected message (after "error: ")
-    "probe_2d_in_3d": (["observables.points={C: [1.0, 0.5]}"],
+HALVES = Path(__file__).resolve().parents[1] / "data" / "user_scene" / "halves_box.geo"
+SCENE_3D = """\
+geometry: {name: file, path: halves_box.geo}
+fluid: {rho: 1.0, mu: 1.0}
+time: {scheme: characteristics1, dt: 0.1, t_end: 0.1}
+boundaries: {inlet: {type: velocity, value: ['y*(0.4 - y)/0.04', 0, 0]}, outlet: {type: do_nothing},
+             plates: {type: no_slip}, sides: {type: slip}}
+observables: {points: {C: [0.25, 0.2, 0.2]}, lines: {L: {from: [0.25, 0.0, 0.2], to: [0.25, 0.4, 0.2], points: 5}},
+              flow_rates: [outlet], forces: [plates]}
+output: {progress: false, fields: false}
+"""
+"""A real 3D file scene: halves_box.geo, the 1 x 0.4 x 0.4 channel in tetrahedra (physical volume fluid; surfaces
+inlet, outlet, plates, sides, and mid: the face x = 0.5 inside the domain)."""
+
+CASES_3D = {  # --set ... -> the expected message (after "error: ")
+    "probe_2d_in_3d": (["observables.points={C: [0.25, 0.2]}"],
                        "observables.points.C: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
-    "line_from_2d_in_3d": (["observables.lines.L.from=[1.0, 0.0]"],
+    "line_from_2d_in_3d": (["observables.lines.L.from=[0.25, 0.0]"],
                            "observables.lines.L.from: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
-    "line_to_2d_in_3d": (["observables.lines.L.to=[1.0, 1.0]"],
+    "line_to_2d_in_3d": (["observables.lines.L.to=[0.25, 0.4]"],
                          "observables.lines.L.to: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
-    "solid_point_2d_in_3d": (["solid={rho: 1.0, mu_s: 1.0}", "observables.solid_points={tip: [1.0, 0.5]}"],
+    "solid_point_2d_in_3d": (["solid={rho: 1.0, mu_s: 1.0}", "observables.solid_points={tip: [0.25, 0.2]}"],
                              "observables.solid_points.tip: must have 3 coordinates [x, y, z] in a 3D scene (got 2)"),
-    "probe_4_in_3d": (["observables.points={C: [1.0, 0.5, 0.5, 0.5]}"],
-                      "observables.points.C: must have 2 or 3 coordinates"),
+    "probe_4_in_3d": (["observables.points={C: [0.25, 0.2, 0.2, 0.2]}"],
+                      "observables.points.C: must have 2 or 3 coordinates ([x, y] in a 2D scene, [x, y, z] in 3D; "
+                      "got 4)"),
+    "line_to_4_in_3d": (["observables.lines.L.to=[0.25, 0.4, 0.2, 0.0]"],
+                        "observables.lines.L.to: must have 2 or 3 coordinates"),
+    "probe_outside_3d": (["observables.points={C: [0.25, 0.2, 0.5]}"],
+                         "observables.points.C: point (0.25, 0.2, 0.5) is outside the mesh"),
+    "line_leaves_3d": (["observables.lines.L.to=[0.25, 0.6, 0.2]"],
+                       "observables.lines.L: point (0.25, 0.45, 0.2) is outside the mesh"),
+    "flow_rate_unknown_3d": (["observables.flow_rates=[outlet, walls]"],
+                             "observables.flow_rates[1]: halves_box.geo has no boundary facet group 'walls' (it has: "
+                             "inlet, outlet, plates, sides)"),
+    "flow_rate_inside_3d": (["observables.flow_rates=[mid]"],
+                            "observables.flow_rates[0]: halves_box.geo has no boundary facet group 'mid'"),
+    "force_unknown_3d": (["observables.forces=[walls]"],
+                         "observables.forces[0]: halves_box.geo has no boundary 'walls' (it has: inlet, outlet, "
+                         "plates, sides; the interface: observables.wetted_solid)"),
+    "force_inside_3d": (["observables.forces=[plates, mid]"],
+                        "observables.forces[1]: halves_box.geo has no boundary 'mid'"),
 }
 
 
 @pytest.fixture
-def main3d(main, monkeypatch, tmp_path):
-    """``main`` on a scene whose geometry says it is 3D (``geometry.DIM``, which the scene validator reads;
-    the positions are checked before the mesh is read) and whose positions have 3 coordinates."""
-    from cosserat_fsi.geometry.file import FileGeometry
-
-    monkeypatch.setattr(FileGeometry, "DIM", 3)
-    (tmp_path / "scene.yaml").write_text(SCENE.replace("[1.0, 0.5]", "[1.0, 0.5, 0.5]").replace(
-        "[1.0, 0.0]", "[1.0, 0.0, 0.5]").replace("to: [1.0, 1.0]", "to: [1.0, 1.0, 0.5]").replace(
-        "(1 - y)', 0]", "(1 - y)', 0, 0]"))
-    return main
+def main3d(capsys, tmp_path, monkeypatch):
+    """``cli.main(argv)`` -> (exit code, stderr) in a folder holding the 3D scene and its .geo; the --out folder is
+    checked to stay byte for byte as it was."""
+    shutil.copy(HALVES, tmp_path / "halves_box.geo")
+    (tmp_path / "scene.yaml").write_text(SCENE_3D)
+    monkeypatch.chdir(tmp_path)
+    yield from in_process_main(capsys, tmp_path)
 
 
 @pytest.mark.parametrize("settings, expected", CASES_3D.values(), ids=CASES_3D)
@@ -158,13 +188,22 @@ def test_scene_observable_fault_3d(main3d, settings, expected):
     assert lines[0].startswith("error: " + expected.split(":")[0] + ":") and expected in lines[0], err
 
 
-def test_3d_positions_pass_the_validator(main3d, tmp_path):
-    """The 3D scene of ``main3d`` itself passes the scene checks: the cases above fail on their setting alone."""
-    from cosserat_fsi.config import load_scene
+def test_3d_scene_of_the_cases_runs(tmp_path):
+    """The 3D scene of ``main3d`` itself is a 3D scene that runs (one step), with its positions, flow rate and
+    force: the cases above fail on their setting alone."""
+    from cosserat_fsi import load_scene, read_timeseries, run_scene
 
+    shutil.copy(HALVES, tmp_path / "halves_box.geo")
+    (tmp_path / "scene.yaml").write_text(SCENE_3D)
     scene = load_scene(tmp_path / "scene.yaml")
-    assert scene.geometry.DIM == 3 and scene.observables.points["C"] == [1.0, 0.5, 0.5]
+    assert scene.geometry.DIM == 3 and scene.observables.points["C"] == [0.25, 0.2, 0.2]
     assert scene.observables.lines["L"].samples()[1].shape == (5, 3)
+    from mpi4py import MPI
+
+    assert run_scene(scene, tmp_path / "run", MPI.COMM_SELF, progress=False)["status"] == "completed"
+    series = read_timeseries(tmp_path / "run" / "timeseries.csv")
+    assert {"u_C", "w_C", "flow_rate_outlet", "drag", "lift", "side"} <= set(series)
+    assert read_timeseries(tmp_path / "run" / "line_L.csv")["z"].tolist() == [0.2] * 5
 
 
 def test_steady_scene_has_no_periodic_reference(main):
