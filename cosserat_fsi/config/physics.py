@@ -72,9 +72,11 @@ class MeshMotionSettings(_Section):
     method (harmonic 1, elastic 1, biharmonic 0)."""
     poisson_ratio: float = Field(default=0.0, gt=-1, lt=0.5)
     """Poisson ratio ν of the ``elastic`` extension."""
-    wall_gap: PositiveFloat | None = None
+    wall_gap: PositiveFloat | Literal["off"] | None = None
     """The run stops (exit 3) when the solid comes closer than this (m) to a wall or any boundary with a
-    prescribed velocity; null: a quarter of the shortest wall facet."""
+    prescribed velocity; null: a quarter of the shortest wall facet; ``off``: no check (run.log says so). A gap
+    that reaches every solid vertex from the walls at rest, so that none would be checked, is refused at
+    setup."""
     remesh: Remesh | None = None
     """Remesh the fluid when the minimum cell quality falls below ``remesh.quality``; null: never."""
 
