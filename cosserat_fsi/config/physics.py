@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from .base import NonNegFloat, PositiveFloat, _Section
 
@@ -74,11 +74,17 @@ class MeshMotionSettings(_Section):
     """Poisson ratio ν of the ``elastic`` extension."""
     wall_gap: PositiveFloat | Literal["off"] | None = None
     """The run stops (exit 3) when the solid comes closer than this (m) to a wall or any boundary with a
-    prescribed velocity; null: a quarter of the shortest wall facet; ``off``: no check (run.log says so). A gap
+    prescribed velocity; null: a quarter of the shortest wall facet; ``off`` (YAML reads it as false, also
+    taken): no check (run.log says so). A gap
     that reaches every solid vertex from the walls at rest, so that none would be checked, is refused at
     setup."""
     remesh: Remesh | None = None
     """Remesh the fluid when the minimum cell quality falls below ``remesh.quality``; null: never."""
+
+    @field_validator("wall_gap", mode="before")
+    @classmethod
+    def _off(cls, value):
+        return "off" if value is False else value  # YAML 1.1 reads a bare off as false
 
     def options(self) -> dict:
         """Keyword arguments of mesh.motion.MeshMotion."""
