@@ -135,9 +135,8 @@ def load_study(path: str | Path) -> Study:
 
 
 def observable_columns(benchmark: str | None) -> list[str]:
-    """The keys of summary.json's benchmark block that carry an error (the study's observables): a reference
-    value by its name, a periodic one as ``NAME.mean``, ``NAME.amplitude``, ``NAME.frequency`` (a range has
-    no error; app/runner.py ``compare_with_reference``)."""
+    """The keys of summary.json's benchmark block with an error (app/runner.py ``compare_with_reference``): a
+    value by its name, a periodic one as ``NAME.mean``, ``.amplitude``, ``.frequency`` (a range has none)."""
     if benchmark is None:
         return []
     from ..references import reference_for

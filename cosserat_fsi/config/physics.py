@@ -119,8 +119,8 @@ class Solid(_Section):
     nu: float | None = Field(default=None, gt=0, lt=0.5)
     """Poisson ratio ν of a compressible law, with ``E``."""
     c2: NonNegFloat = 0.0
-    """Second Mooney–Rivlin constant c₂ (Pa, incompressible law); in 2D with det F = 1 it only shifts the
-    pressure (seed eq. 14), so it does not change the motion."""
+    """Second Mooney–Rivlin constant c₂ (Pa, incompressible law): not modelled (the stress has no c₂ term), so
+    a nonzero value is refused; in 2D with det F = 1 it would only shift the pressure (seed eq. 14)."""
     gravity: float = 0.0
     """Acceleration (m/s²) in −y on the solid, switched on with a cosine ramp over ``gravity_ramp_time``."""
     gravity_ramp_time: NonNegFloat = 0.0

@@ -7,8 +7,8 @@ why), with one exception, keys that change only what is written (``WARNED``: ``o
 the scheme to ``steady``: the run writes one line ``<key>: not used: <why>`` to the terminal and run.log.
 
 ``RULES`` is the table: (key, why it is not used in a scene, or None). A key counts as set when the scene
-gives it a value other than its default (the default is what the run does without the key). The checks that need the mesh are
-where the mesh is read: a user file's facet groups (geometry/file.py ``check_scene``), the wall gap against
+gives it a value other than its default (the default is what the run does without the key). The checks
+that need the mesh are where the mesh is read: a user file's facet groups (geometry/file.py ``check_scene``), the wall gap against
 the solid's distance to the walls (mesh/wall_gap.py).
 """
 
@@ -122,6 +122,21 @@ def _mumps(scene) -> str | None:
     return None
 
 
+def _penalty(scene) -> str | None:
+    if scene.geometry.name == "file" and scene.boundaries is None:
+        return None  # the conditions by name come with the mesh
+    kinds = {bc.type for bc in scene.conditions().values()}
+    natural = sorted(kinds - {"no_slip", "velocity", "slip"})
+    if natural:
+        return (f"not used: a boundary of type {natural[0]} determines the pressure (the penalty only fixes the "
+                "pressure's constant where the velocity is prescribed on the whole boundary)")
+    return None
+
+
+def _c2(scene) -> str | None:
+    return "not used: the solid's stress has no c₂ term (in 2D, with det F = 1, c₂ would only shift the pressure)"
+
+
 def _no_solid_cells(scene) -> str | None:
     geo = scene.geometry
     if geo.solid_cells or geo.SOLID_FROM_FILE:
@@ -197,6 +212,8 @@ def _inertia(scene) -> str | None:
 
 def _inlet_or_lid(scene) -> str | None:
     geo = scene.geometry
+    if scene.benchmark in ("micropolar_poiseuille", "micropolar_taylor_green"):
+        return f"not used: benchmark {scene.benchmark} takes its boundary data from its exact solution"
     if geo.name == "file" or geo.INFLOW:
         return None
     names = geo.describe().get("facet_tags", {})
@@ -248,7 +265,9 @@ RULES: tuple[tuple[str, Callable[[Any], str | None]], ...] = (
     ("solver.max_krylov_iterations", _kept),
     ("solver.krylov_rtol", _krylov_rtol),
     ("solver.mumps_ordering", _mumps),
+    ("solver.penalty", _penalty),
     ("solid", _no_solid_cells),
+    ("solid.c2", _c2),
     ("solid.initial_velocity", _steady_only("no time derivative: the solid starts at rest and stays static")),
     ("solid.gravity_ramp_time", _gravity_ramp),
     ("solid.volume_correction", _volume_correction),
