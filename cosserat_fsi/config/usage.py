@@ -8,8 +8,8 @@ the scheme to ``steady``: the run writes one line ``<key>: not used: <why>`` to 
 
 ``RULES`` is the table: (key, why it is not used in a scene, or None). A key counts as set when the scene
 gives it a value other than its default (the default is what the run does without the key). The checks
-that need the mesh are where the mesh is read: a user file's facet groups (geometry/file.py ``check_scene``), the wall gap against
-the solid's distance to the walls (mesh/wall_gap.py).
+that need the mesh are where the mesh is read: a user file's facet groups (geometry/file.py
+``check_scene``), the wall gap against the solid's distance to the walls (mesh/wall_gap.py).
 """
 
 from __future__ import annotations

@@ -120,8 +120,8 @@ class MeshMotion(_MovingMesh):
                  wall_gap: float | str | None = None, mesh_sizes: bool = False):
         """``wall_facets``: local facets of the channel's walls (the solid must keep ``wall_gap`` from them;
         default gap: a quarter of the shortest wall facet; ``"off"``: no check). ``mesh_sizes``: keep the
-        target cell size of each vertex (P1 ``mesh_size``, in the checkpoint; a remesh meshes to it and carries it on), from the
-        mean length of the vertex's edges on this mesh."""
+        target cell size of each vertex (P1 ``mesh_size``, in the checkpoint; a remesh meshes to it and
+        carries it on), from the mean length of the vertex's edges on this mesh."""
         super().__init__(mesh, comm)
         self.method = method
         M, tdim = self.M, mesh.topology.dim
