@@ -54,7 +54,7 @@ CASES = {
              + _INCOMPRESSIBLE + _HARMONIC),
     "mp-poiseuille": ("configs/micropolar_poiseuille.yaml",
                       ["geometry.level=0", "time.scheme=characteristics2", "time.dt=10", "time.t_end=50",
-                       "output.fields=false"]),
+                       "micropolar.inertia=1.0", "output.fields=false"]),
     # the nodal schemes: the shipped FSI3 (ale_bdf2) and CFD3 (ale_bdf2 + a Picard pass), generalised-α + 2 passes
     "fsi3-ale": ("configs/turek_hron_fsi3.yaml", _FSI3),
     "cfd3-ale-picard": ("configs/turek_hron_cfd3.yaml", _FAST_FLOW),

@@ -25,6 +25,7 @@ from ..analysis import relative_error
 from ..config import Scene, as_scene, dump_resolved
 from ..config.benchmarks import applicability
 from ..config.scene import condition_lines
+from ..config.usage import usage_warnings
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
@@ -124,6 +125,8 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         atomic_write_text(out_dir / "config.yaml", dump_resolved(scene, conditions))
 
     on_root(comm, start, step="commit")
+    for line in usage_warnings(scene):  # set output keys this run does not use (config/usage.py)
+        log.warning("%s", line)
     if restart:
         log.info("restart from the checkpoint of step %d (t = %.6g)", sim.step_count, sim.t)
     log.info("mesh %s: %d vertices, %d cells", Path(msh).name, n_vertices,

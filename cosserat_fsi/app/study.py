@@ -128,10 +128,39 @@ def load_study(path: str | Path) -> Study:
 
     for overrides, _ in _combinations(study):
         try:
-            load_scene(_config_path(study, path), [f"{k}={_yaml(v)}" for k, v in overrides.items()])
+            scene = load_scene(_config_path(study, path), [f"{k}={_yaml(v)}" for k, v in overrides.items()])
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
+        _check_observables(study, scene, path)
     return study
+
+
+def observable_columns(benchmark: str | None) -> list[str]:
+    """The keys of summary.json's benchmark block with an error (app/runner.py ``compare_with_reference``): a
+    value by its name, a periodic one as ``NAME.mean``, ``.amplitude``, ``.frequency`` (a range has none)."""
+    if benchmark is None:
+        return []
+    from ..references import reference_for
+
+    out = []
+    for key, reference in reference_for(benchmark).items():
+        if isinstance(reference, dict) and "frequency" in reference:
+            out += [f"{key}.{part}" for part in ("mean", "amplitude", "frequency") if part in reference]
+        elif isinstance(reference, float):
+            out.append(key)
+    return out
+
+
+def _check_observables(study: Study, scene, path: Path) -> None:
+    """InputError naming the first observable that is not a column of the scene's benchmark block."""
+    valid = observable_columns(scene.benchmark)
+    for i, key in enumerate(study.observables):
+        if key not in valid:
+            if scene.benchmark is None:
+                raise InputError(f"{path}: observables[{i}]: {key!r}: the scene has no benchmark (the report's "
+                                 "errors are against a benchmark's reference)")
+            raise InputError(f"{path}: observables[{i}]: {key!r} is not a column of benchmark {scene.benchmark} "
+                             f"(valid: {', '.join(valid) or 'none'})")
 
 
 def _config_path(study: Study, study_path: Path) -> Path:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from .base import NonNegFloat, PositiveFloat, _Section
 
@@ -73,11 +73,19 @@ class MeshMotionSettings(_Section):
     method (harmonic 1, elastic 1, biharmonic 0)."""
     poisson_ratio: float = Field(default=0.0, gt=-1, lt=0.5)
     """Poisson ratio ν of the ``elastic`` extension."""
-    wall_gap: PositiveFloat | None = None
+    wall_gap: PositiveFloat | Literal["off"] | None = None
     """The run stops (exit 3) when the solid comes closer than this (m) to a wall or any boundary with a
-    prescribed velocity; null: a quarter of the shortest wall facet."""
+    prescribed velocity; null: a quarter of the shortest wall facet; ``off`` (YAML reads it as false, also
+    taken): no check (run.log says so). A gap
+    that reaches every solid vertex from the walls at rest, so that none would be checked, is refused at
+    setup."""
     remesh: Remesh | None = None
     """Remesh the fluid when the minimum cell quality falls below ``remesh.quality``; null: never."""
+
+    @field_validator("wall_gap", mode="before")
+    @classmethod
+    def _off(cls, value):
+        return "off" if value is False else value  # YAML 1.1 reads a bare off as false
 
     def options(self) -> dict:
         """Keyword arguments of mesh.motion.MeshMotion."""
@@ -112,8 +120,8 @@ class Solid(_Section):
     nu: float | None = Field(default=None, gt=0, lt=0.5)
     """Poisson ratio ν of a compressible law, with ``E``."""
     c2: NonNegFloat = 0.0
-    """Second Mooney–Rivlin constant c₂ (Pa, incompressible law); in 2D with det F = 1 it only shifts the
-    pressure (seed eq. 14), so it does not change the motion."""
+    """Second Mooney–Rivlin constant c₂ (Pa, incompressible law): not modelled (the stress has no c₂ term), so
+    a nonzero value is refused; in 2D with det F = 1 it would only shift the pressure (seed eq. 14)."""
     gravity: float = 0.0
     """Acceleration (m/s²) in −y on the solid, switched on with a cosine ramp over ``gravity_ramp_time``."""
     gravity_ramp_time: NonNegFloat = 0.0

@@ -259,7 +259,13 @@ How to read it:
   b), ...).
 - Unknown keys, wrong types (a string for a number), values out of range and non-finite numbers (`.inf`,
   `.nan`) are refused before anything runs, with one line naming the key, e.g.
-  `error: time.dt: must be > 0 (got -0.1)` (exit code 2)."""
+  `error: time.dt: must be > 0 (got -0.1)` (exit code 2).
+- A key the user sets is used or refused, never ignored: a key whose effect depends on another key's value
+  (a scheme, the solver's type, the solid's law, micropolar terms, an inlet, the mesh motion) and is given a
+  value other than its default where that other key makes it meaningless is refused the same way, e.g.
+  `error: solver.amg: only for the iterative solver; solver.type is direct (MUMPS)`. The one exception
+  changes only what is written: `output.every` and `output.checkpoint_every`, unused (a steady scene, the
+  fields off), are one warning line on the terminal and in run.log (`cosserat_fsi/config/usage.py`)."""
 
 
 def _section_markdown(rows: list[FieldRow], top: FieldRow) -> list[str]:

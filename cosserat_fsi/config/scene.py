@@ -16,6 +16,7 @@ from .sections import (BoundaryCondition, ObservableSet, Output, Reference, chec
                        precheck_micro_values)
 from .solver import Solver
 from .time import Time
+from .usage import check_usage
 
 
 class Scene(_Section):
@@ -155,6 +156,7 @@ class Scene(_Section):
                                  f"(3.14159265358979, got {geo.length!r})")
             if m.inertia <= 0 and self.has_micropolar:
                 raise ValueError("micropolar.inertia: micropolar_taylor_green needs inertia > 0")
+        check_usage(self)  # a set key the run would not use (config/usage.py)
         return self
 
     def conditions(self, names=None, extent=None) -> dict[str, BoundaryCondition]:

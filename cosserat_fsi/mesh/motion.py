@@ -117,11 +117,11 @@ class MeshMotion(_MovingMesh):
 
     def __init__(self, mesh, cell_tags, comm=MPI.COMM_WORLD, stiffening: bool = True, method: str = "harmonic",
                  stiffness_exponent: float = 1.0, poisson_ratio: float = 0.0, wall_facets: np.ndarray | None = None,
-                 wall_gap: float | None = None, mesh_sizes: bool = False):
+                 wall_gap: float | str | None = None, mesh_sizes: bool = False):
         """``wall_facets``: local facets of the channel's walls (the solid must keep ``wall_gap`` from them;
-        default gap: a quarter of the shortest wall facet). ``mesh_sizes``: keep the target cell size of
-        each vertex (P1 ``mesh_size``, in the checkpoint; a remesh meshes to it and carries it on), from the
-        mean length of the vertex's edges on this mesh."""
+        default gap: a quarter of the shortest wall facet; ``"off"``: no check). ``mesh_sizes``: keep the
+        target cell size of each vertex (P1 ``mesh_size``, in the checkpoint; a remesh meshes to it and
+        carries it on), from the mean length of the vertex's edges on this mesh."""
         super().__init__(mesh, comm)
         self.method = method
         M, tdim = self.M, mesh.topology.dim

@@ -9,15 +9,18 @@ so every rank keeps all of them. A solid vertex closer than the gap to a wall st
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 from mpi4py import MPI
 
 from .. import compat
-from ..errors import DivergenceError
+from ..errors import DivergenceError, InputError
 from ..points import _kernels
 
 import dolfinx
 
+log = logging.getLogger("cosserat_fsi")
 PAIRS = 1 << 18
 """Point–triangle pairs per numpy pass of ``_triangle_distance`` (its temporaries: about 100 bytes a pair)."""
 
@@ -26,9 +29,16 @@ class WallGap:
     """The solid must stay ``gap`` away from the channel's walls: closer, no fluid mesh between them can
     carry the flow (a contact problem this scheme does not model), so the run stops (exit 3) naming where."""
 
-    def __init__(self, motion, facets: np.ndarray | None, gap: float | None):
-        """``motion``: the MeshMotion whose solid vertices are checked; ``facets``: the wall facets."""
+    def __init__(self, motion, facets: np.ndarray | None, gap: float | str | None):
+        """``motion``: the MeshMotion whose solid vertices are checked; ``facets``: the wall facets; ``gap``:
+        ``solid.mesh_motion.wall_gap`` (``"off"``: no check). InputError if the gap reaches every solid vertex
+        from the walls at rest (none would be checked)."""
         comm, mesh, d = motion.comm, motion.mesh, motion.dim
+        off = gap == "off"
+        if off:
+            facets, gap = None, None
+            if comm.rank == 0:
+                log.info("solid.mesh_motion.wall_gap: off: the run does not stop when the solid reaches a wall")
         local = _facet_segments(mesh, facets) if facets is not None else np.zeros((0, d, d))
         self.segments = np.concatenate(comm.allgather(local))  # the walls do not move: all ranks keep them
         lengths = np.linalg.norm(self.segments[:, 1] - self.segments[:, 0], axis=1)  # (3D: an edge of the facet)
@@ -42,6 +52,13 @@ class WallGap:
         # ``check`` measures only the vertices that could be within the gap
         rest = self.distance(X[dofs])[0] if len(self.segments) else np.full(len(dofs), np.inf)
         keep = rest > self.gap  # solid vertices on a wall from the start (attached) are not checked
+        if gap is not None and len(self.segments):
+            counts = comm.allreduce(np.array([len(dofs), int(keep.sum())]), op=MPI.SUM)
+            farthest = comm.allreduce(float(rest.max()) if len(rest) else 0.0, op=MPI.MAX)
+            if counts[0] and not counts[1]:
+                raise InputError(f"solid.mesh_motion.wall_gap: {gap!r} m reaches every solid vertex from the walls "
+                                 f"at rest (the farthest is {farthest:.4g} m away), so none would be checked; give "
+                                 "a smaller gap, or off to turn the check off")
         self.dofs, self.X, self.rest_distance = dofs[keep], X[dofs[keep]], rest[keep]
 
     def distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
