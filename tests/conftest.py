@@ -197,10 +197,24 @@ def _peak_memory_gib() -> tuple[float, float]:
 
 
 @pytest.hookimpl(trylast=True)
+def _world_size() -> int:
+    """Ranks of this pytest run, from the launcher's environment (OpenMPI, MPICH), without importing MPI."""
+    for key in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
+        if os.environ.get(key, "").isdigit():
+            return int(os.environ[key])
+    return 1
+
+
 def pytest_collection_modifyitems(items):
     """The tests marked slow first, each group in its collected order: on two xdist workers the run then
-    ends on short tests, not with one worker on a long one while the other has nothing left to take."""
+    ends on short tests, not with one worker on a long one while the other has nothing left to take. The
+    ``two_ranks`` tests (serial = parallel comparisons) are skipped on one rank, where both runs are one."""
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    if _world_size() < 2:
+        skip = pytest.mark.skip(reason="serial = parallel: needs mpirun -n 2 (make test-mpi runs it)")
+        for item in items:
+            if item.get_closest_marker("two_ranks") is not None:
+                item.add_marker(skip)
 
 
 _PEAKS = {"test process": (0.0, ""), "child process": (0.0, "")}

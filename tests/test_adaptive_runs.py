@@ -164,6 +164,7 @@ def test_a_finished_adaptive_run_extended_by_the_cli_continues_its_controller(ru
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("scheme", ["characteristics2", "generalized_alpha"])
+@pytest.mark.two_ranks
 def test_adaptive_run_serial_equals_parallel(shared_tmp, scheme):
     """COMM_WORLD (2 ranks under mpirun) = COMM_SELF: the error estimate is a global reduction, so every
     rank takes the same steps; the dt column and the observables agree to 1e-8."""

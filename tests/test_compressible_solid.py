@@ -106,6 +106,7 @@ def test_pressure_lives_in_the_fluid():
 @pytest.mark.mpi
 @pytest.mark.slow
 @pytest.mark.parametrize("scheme", ["characteristics2", "ale_bdf2", "generalized_alpha"])
+@pytest.mark.two_ranks
 def test_compressible_fsi_serial_equals_parallel(scheme):
     """A short FSI run with the compressible flag: COMM_WORLD (1 or 2 ranks) = COMM_SELF to 1e-8."""
     _, parallel = _fsi3(MPI.COMM_WORLD, scheme)

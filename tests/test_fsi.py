@@ -280,6 +280,7 @@ def test_solid_reaching_a_wall_stops_with_exit_3(run_cli, tmp_path):
                                             ("generalized_alpha", 0), ("generalized_alpha", 1),
                                             ("generalized_alpha", 2)])
 @pytest.mark.slow
+@pytest.mark.two_ranks
 def test_fsi_serial_equals_parallel(scheme, passes):
     """Tip displacement, forces and energies of a short FSI run: COMM_WORLD (1 or 2 ranks) = COMM_SELF."""
     scene = validate_scene({"geometry": {"name": "turek_hron", "level": 0, "flag": "solid"},

@@ -135,6 +135,7 @@ def test_schaefer_turek_2d1_coarse_and_refined():
 
 
 @pytest.mark.mpi
+@pytest.mark.two_ranks
 def test_serial_equals_parallel_drag():
     """Drag, lift and Δp on COMM_WORLD (1 or 2 ranks) equal a serial run on COMM_SELF to 1e-8."""
     parallel = _schaefer_turek_2d1(0, MPI.COMM_WORLD, t_end=0.5, dt=0.05)

@@ -172,6 +172,7 @@ def test_misplaced_3d_observables_are_refused_naming_the_key(observables, messag
 
 
 @pytest.mark.mpi
+@pytest.mark.two_ranks
 def test_3d_probes_serial_equals_parallel():
     """The trigonometric flow on the cube (level 1): probes, line, flow rates on COMM_WORLD (1 or 2 ranks)
     and on COMM_SELF agree to 1e-9 (p as differences: its constant is the solver's)."""

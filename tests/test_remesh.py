@@ -330,6 +330,7 @@ def test_pvpython_shows_the_run_across_remeshes(remeshed_runs, tmp_path):
 
 
 @pytest.mark.mpi
+@pytest.mark.two_ranks
 def test_remeshing_run_serial_equals_parallel(tmp_path_factory):
     """The run with two remeshes on COMM_WORLD (2 ranks under mpirun) = on COMM_SELF: rank 0 meshes the same
     fluid whatever the partition, so the time series agree to round-off."""

@@ -174,13 +174,11 @@ def _compare(a: dict, b: dict, rtol: float) -> str | None:
 
 @pytest.mark.slow
 @pytest.mark.mpi
+@pytest.mark.two_ranks
 def test_3d_remeshing_run_serial_equals_parallel():
     """The run with two remeshes on COMM_WORLD (2 ranks under mpirun) = on COMM_SELF: rank 0 meshes the same
-    fluid whatever the partition. On one rank the two runs are the same run: the MPI tier runs it."""
+    fluid whatever the partition."""
     import json
-
-    if MPI.COMM_WORLD.size == 1:
-        pytest.skip("serial = parallel on 2 ranks: the MPI tier (make test-mpi) runs it")
 
     from cosserat_fsi.app.runner import run_scene
     from cosserat_fsi.io import read_timeseries

@@ -358,6 +358,7 @@ def test_time_order_3d_characteristics2():
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("scheme", ["characteristics1", "characteristics2"])
+@pytest.mark.two_ranks
 def test_time_stepping_3d_serial_equals_parallel(scheme):
     """Three steps (δt = 0.1) of the unsteady 3D problem on COMM_WORLD (1 or 2 ranks) and on COMM_SELF:
     u, ω and p (modulo its constant: the cube has Dirichlet data all round) at probe points agree to 1e-8."""
