@@ -260,7 +260,7 @@ FILE_SCENES = {  # (files {name: content}, geometry section, extra YAML, expecte
     "obs_builtin_geometry": ({}, "{name: channel}", "observables: {forces: [walls]}\n",
                              "observables: only for geometry file"),
     "obs_point_components": ({"m.geo": _SQUARE + _NAMED}, "{name: file, path: m.geo}",
-                             "observables: {points: {a: [0.5]}}\n", 
+                             "observables: {points: {a: [0.5]}}\n",
                              "observables.points.a: must have 2 or 3 coordinates"),
     "second_order": ({"m.geo": _SQUARE + _NAMED + "Mesh.ElementOrder = 2;\n"}, "{name: file, path: m.geo}", "",
                      "only first-order triangles and quadrangles"),
