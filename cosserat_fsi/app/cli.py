@@ -169,7 +169,7 @@ def _cmd_mesh(args, context=None) -> int:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.open(str(path))
         vertices = len(gmsh.model.mesh.getNodes()[0])
-        cells = sum(len(tags) for tags in gmsh.model.mesh.getElements(dim=2)[1])
+        cells = sum(len(tags) for tags in gmsh.model.mesh.getElements(dim=scene.geometry.DIM)[1])
     finally:
         gmsh.finalize()
     _say(f"{path}: {vertices} vertices, {cells} cells")
