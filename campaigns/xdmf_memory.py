@@ -92,8 +92,10 @@ def main() -> None:
             run = out / f"solve-L{level}"
             subprocess.run([*launcher(), *cli, "run", scene, "--out", run, "--overwrite"], check=True, env=env)
             summary = json.loads((run / "summary.json").read_text())
-            row = {"level": level, "read": "xdmf", "solve": "steady, solver.type auto", "dofs": summary["dofs"]["total"],
-                   "wall_s": round(summary["wall_time"]["total"], 1), "linear_solver": summary.get("linear_solver", {}).get("type"),
+            solver = summary.get("linear_solver", {}).get("type")
+            row = {"level": level, "read": "xdmf", "solve": "steady, solver.type auto",
+                   "dofs": summary["dofs"]["total"],
+                   "wall_s": round(summary["wall_time"]["total"], 1), "linear_solver": solver,
                    "peak_rss_mib_per_rank": [round(p, 1) for p in summary["memory"]["peak_rss_mib_per_rank"]]}
             print(json.dumps(row), flush=True)
             results.append(row)

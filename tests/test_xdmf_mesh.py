@@ -19,7 +19,8 @@ from cosserat_fsi import compat
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.geometry import build_msh
 from cosserat_fsi.geometry.file import read_names
-from cosserat_fsi.geometry.xdmf_file import convert, load, table
+from cosserat_fsi.app.xdmf_mesh import convert, load
+from cosserat_fsi.geometry.xdmf_file import table
 
 import dolfinx
 import ufl

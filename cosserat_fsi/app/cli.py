@@ -166,8 +166,9 @@ def _cmd_mesh(args, context=None) -> int:
         refused.shared = True  # every rank refuses: said once
         raise refused
     scene = load_scene(args.config, args.set)
-    if args.format == "xdmf":  # geometry/xdmf_file.py: OUT/NAME.xdmf + NAME.h5 + NAME.names.json
-        from cosserat_fsi.geometry.xdmf_file import convert, table
+    if args.format == "xdmf":  # app/xdmf_mesh.py: OUT/NAME.xdmf + NAME.h5 + NAME.names.json
+        from cosserat_fsi.app.xdmf_mesh import convert
+        from cosserat_fsi.geometry.xdmf_file import table
 
         out = convert(scene, Path(args.out) if args.out else Path(args.config).resolve().parent)
         names = table(out)

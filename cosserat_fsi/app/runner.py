@@ -28,7 +28,7 @@ from ..config.scene import condition_lines
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
-from ..geometry.xdmf_file import load as load_xdmf
+from .xdmf_mesh import load as load_xdmf
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.profiles import check_profiles, open_profiles, write_profiles
 from ..mesh.report import log_solid_resolution
