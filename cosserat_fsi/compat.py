@@ -69,6 +69,39 @@ def read_msh(path, comm, gdim: int = 2):
         gmsh.finalize()
 
 
+def read_xdmf(path, comm, names: tuple[str, str, str] = ("mesh", "cells", "facets")):
+    """Read a mesh and its cell and facet tags from an XDMF/HDF5 pair **distributed**: every rank reads its
+    share of the .h5 (no rank holds the whole mesh), with shared-facet ghosting as :func:`read_msh`.
+    ``names``: the Grid names of the mesh, the cell tags and the facet tags. Returns ``(mesh, cell_tags,
+    facet_tags)``. Same call on 0.5.2 and 0.11 (0.11 adds ``max_facet_to_cell_links``, default 2)."""
+    import dolfinx.io
+
+    with dolfinx.io.XDMFFile(comm, str(path), "r") as xdmf:
+        mesh = xdmf.read_mesh(ghost_mode=dolfinx.mesh.GhostMode.shared_facet, name=names[0])
+        tdim = mesh.topology.dim
+        mesh.topology.create_connectivity(tdim - 1, tdim)  # the facets, to place the facet tags
+        mesh.topology.create_connectivity(tdim, tdim)  # 0.11 places the cell tags through it too
+        cell_tags = xdmf.read_meshtags(mesh, names[1])
+        facet_tags = xdmf.read_meshtags(mesh, names[2])
+    return mesh, cell_tags, facet_tags
+
+
+def write_xdmf(path, mesh, cell_tags, facet_tags, names: tuple[str, str] = ("cells", "facets")) -> None:
+    """Write ``mesh`` and its tags into ``path`` (.xdmf) + its .h5, the tags as the Grids ``names``
+    (collective on the mesh's communicator). 0.11's write_meshtags takes the mesh's geometry too."""
+    import dolfinx.io
+
+    cell_tags.name, facet_tags.name = names
+    where = f"/Xdmf/Domain/Grid[@Name='{mesh.name}']/Geometry"
+    with dolfinx.io.XDMFFile(mesh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        for tags in (cell_tags, facet_tags):
+            if NEW:
+                xdmf.write_meshtags(tags, mesh.geometry, geometry_xpath=where)
+            else:
+                xdmf.write_meshtags(tags, geometry_xpath=where)
+
+
 def geometry_dofmap(mesh) -> np.ndarray:
     """Geometry node indices per local cell, shape (num_cells, nodes_per_cell)."""
     if NEW:

@@ -158,9 +158,31 @@ def _say_how_it_did(out: Path, comm, summary: dict | None = None):
 
 
 def _cmd_mesh(args, context=None) -> int:
+    if args.out is not None and args.format != "xdmf":
+        raise InputError("--out: only with --format xdmf (a .msh is kept in the mesh cache)")
+    if args.format == "xdmf" and _world().size > 1:
+        refused = InputError("--format xdmf: converts on one process (the .msh is read whole there); run "
+                             "`cosserat-fsi mesh` without mpirun")
+        refused.shared = True  # every rank refuses: said once
+        raise refused
     scene = load_scene(args.config, args.set)
+    if args.format == "xdmf":  # app/xdmf_mesh.py: OUT/NAME.xdmf + NAME.h5 + NAME.names.json
+        from cosserat_fsi.app.xdmf_mesh import convert
+        from cosserat_fsi.geometry.xdmf_file import table
+
+        out = convert(scene, Path(args.out) if args.out else Path(args.config).resolve().parent)
+        names = table(out)
+        _say(f"{out}: {names['cells']['fluid']} fluid and {names['cells']['solid']} solid cells; facet groups "
+             f"{', '.join(sorted(names['facets'])) or 'none'}")
+        return 0
     from cosserat_fsi.geometry import build_msh
 
+    if scene.geometry.msh_params().get("format") == "xdmf":  # already converted: its table says its size
+        from cosserat_fsi.geometry.xdmf_file import table
+
+        cells = table(scene.geometry.path)["cells"]
+        _say(f"{scene.geometry.path}: {cells['fluid'] + cells['solid']} cells")
+        return 0
     path = build_msh(scene.geometry)
     import gmsh
 
@@ -272,8 +294,13 @@ def _parser() -> argparse.ArgumentParser:
                           "keyed by coordinates, not by partition). Everything is checked before a byte "
                           "of DIR changes")
     run.set_defaults(func=_cmd_run)
-    mesh = sub.add_parser("mesh", help="build (or find cached) the scene's mesh and print its size")
+    mesh = sub.add_parser("mesh", help="build (or find cached) the scene's mesh and print its size; with "
+                          "--format xdmf, convert it to NAME.xdmf + NAME.h5 + NAME.names.json (read distributed)")
     scene_args(mesh)
+    mesh.add_argument("--format", choices=("msh", "xdmf"), default="msh",
+                      help="msh (default): the cached gmsh mesh; xdmf: write the checked, renumbered mesh and its "
+                           "tags as XDMF/HDF5 for `geometry: {name: file, path: NAME.xdmf}` (one process)")
+    mesh.add_argument("--out", help="folder for the XDMF files (default: the scene file's folder)")
     mesh.set_defaults(func=_cmd_mesh)
     plot = sub.add_parser("plot", help="PNGs of a run: time series (with the reference band) and snapshots")
     plot.add_argument("run_dir", help="output folder of `cosserat-fsi run`")

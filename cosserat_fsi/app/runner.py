@@ -29,6 +29,7 @@ from ..config.usage import usage_warnings
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
 from ..exact import EXACT_BENCHMARKS, exact_for
 from ..geometry import build_msh
+from .xdmf_mesh import load as load_xdmf
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.profiles import check_profiles, open_profiles, write_profiles
 from ..mesh.report import log_solid_resolution
@@ -50,8 +51,10 @@ PERIODIC_BENCHMARKS = {"turek_hron_cfd3", "schaefer_turek_2d2", "turek_hron_fsi3
 
 
 def load_mesh(scene: Scene, comm: MPI.Comm) -> tuple[Any, Any, Any, Path]:
-    """Build (rank 0, cached) and read the scene's mesh: (mesh, cell_tags, facet_tags, msh path)."""
+    """Build (rank 0, cached) and read the scene's mesh (an .xdmf: by every rank): (mesh, tags, tags, path)."""
     geo = scene.geometry
+    if geo.msh_params().get("format") == "xdmf":  # read distributed, checked there
+        return (*load_xdmf(scene, comm), Path(geo.path))
     path = on_root(comm, _build_checked, scene, step="mesh")
     mesh, cell_tags, facet_tags = compat.read_msh(path, comm, gdim=geo.DIM)
     return mesh, cell_tags, facet_tags, path
@@ -303,9 +306,9 @@ def _write_fields(fields, sim):
 
 def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message, comm) -> dict:
     """summary.json: versions, sizes, timings, peak memory, periodic analysis, comparison with the reference."""
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB (Linux reports KiB)
-    memory = {"peak_rss_mib_max_rank": comm.allreduce(rss, op=MPI.MAX),
-              "peak_rss_mib_sum": comm.allreduce(rss, op=MPI.SUM)}
+    ranks = comm.allgather(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)  # MiB (Linux: KiB)
+    memory = {"peak_rss_mib_max_rank": max(ranks), "peak_rss_mib_sum": sum(ranks), "peak_rss_mib_per_rank": ranks}
+    log.info("peak memory per rank (MiB): %s", " ".join(f"{m:.0f}" for m in ranks))
 
     def build_and_write():  # rank 0
         try:

@@ -142,6 +142,8 @@ def build_msh(geometry: GeometryBase, cache_dir: str | os.PathLike | None = None
     when complete, so the cache never holds a partial mesh (temporaries of dead processes are removed).
     """
     name, level, full = geometry.name, geometry.level, geometry.msh_params()
+    if full.get("format") == "xdmf":  # a converted mesh (geometry/xdmf_file.py): read as it is, not cached
+        return pathlib.Path(full["path"])
     gmsh_timeout()  # a bad $COSSERAT_FSI_GMSH_TIMEOUT is refused whether or not the mesh is cached
     keyed = {k: v for k, v in full.items() if not (name == "file" and k == "path")}  # a file: by content
     key = json.dumps({"name": name, "level": level, "params": keyed, "version": BUILDER_VERSION,

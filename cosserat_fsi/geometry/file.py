@@ -21,6 +21,8 @@ The dimension D comes from the file: physical volumes name 3D cells (tetrahedra;
 the facet groups), else physical surfaces name 2D cells (triangles or quadrangles, in the plane z = 0) and
 physical curves the facet groups. ``FileGeometry.DIM`` reads it from the file's text when the scene is
 validated (geo_scan.file_dimension); the names table records the mesh's own (``"dim"``), checked against it.
+An ``.xdmf`` (``cosserat-fsi mesh SCENE --format xdmf``) is not meshed nor cached: its table gives the
+dimension, and it is read distributed (xdmf_file.py).
 
 A ``.geo`` builds a model and nothing else: commands that run programs, write files or read files outside
 its folder are refused naming the file and line (geo_scan.py) unless ``trusted: true``; a ``.msh`` with
@@ -47,7 +49,7 @@ from .geo_scan import file_dimension, msh_physical_names
 
 _Refused = topo.Refused
 
-SUFFIXES = (".geo", ".msh")
+SUFFIXES = (".geo", ".msh", ".xdmf")
 
 
 class CellNames(BaseModel):
@@ -70,8 +72,9 @@ class FileGeometry(GeometryBase):
     """A user's own 2D or 3D gmsh mesh with physical names: the facet groups keep the file's names (the scene's
     ``boundaries`` give their conditions); boundary facets in no group become the group ``default``."""
     path: str
-    """A gmsh ``.geo`` (meshed with Mesh.MeshSizeFactor × 2^-level) or ``.msh`` (read as it is) file,
-    relative to the scene file's folder or absolute."""
+    """A gmsh ``.geo`` (meshed with Mesh.MeshSizeFactor × 2^-level) or ``.msh`` (read as it is) file, or an
+    ``.xdmf`` written by ``cosserat-fsi mesh SCENE --format xdmf`` (read distributed; with its .h5 and
+    .names.json beside it), relative to the scene file's folder or absolute."""
     cells: CellNames = Field(default_factory=CellNames)
     """Which physical cell groups are fluid and which solid."""
     trusted: bool = False
@@ -87,10 +90,12 @@ class FileGeometry(GeometryBase):
     @field_validator("path")
     @classmethod
     def _path(cls, value: str) -> str:
-        """A readable ``.geo`` or ``.msh`` file; a ``.msh`` must start as one (``$MeshFormat``)."""
+        """A readable ``.geo``, ``.msh`` or ``.xdmf`` file; a ``.msh`` must start as one (``$MeshFormat``), an
+        ``.xdmf`` as XML."""
         path = pathlib.Path(value)
         if path.suffix.lower() not in SUFFIXES:
-            raise ValueError(f"must be a gmsh .geo or .msh file (got {value!r})")
+            raise ValueError(f"must be a gmsh .geo or .msh file, or an .xdmf written by `cosserat-fsi mesh "
+                             f"--format xdmf` (got {value!r})")
         if not path.exists():
             raise ValueError(f"no such file: {value}")
         try:
@@ -99,6 +104,8 @@ class FileGeometry(GeometryBase):
             raise ValueError(str(exc)) from None
         if path.suffix.lower() == ".msh" and not head.lstrip().startswith(b"$MeshFormat"):
             raise ValueError(f"not a gmsh mesh file (no $MeshFormat at its start): {value}")
+        if path.suffix.lower() == ".xdmf" and not head.lstrip().startswith((b"<?xml", b"<Xdmf", b"<!DOCTYPE")):
+            raise ValueError(f"not an XDMF file (no XML at its start): {value}")
         if path.suffix.lower() == ".geo" and b"\0" in head:
             raise ValueError(f"not a gmsh .geo text file: {value}")
         return str(path.resolve())
@@ -109,6 +116,15 @@ class FileGeometry(GeometryBase):
             from .geo_scan import scan_geo
 
             scan_geo(self.path)  # InputError "<file>:<line>: gmsh command X is not allowed in a scene"
+        if self.path.lower().endswith(".xdmf"):  # not meshed: the dimension from its names table
+            from .xdmf_file import dimension
+
+            if self.level != 0 or self.cells != CellNames() or self.trusted:
+                key = "level" if self.level != 0 else "cells" if self.cells != CellNames() else "trusted"
+                raise InputError(f"geometry.{key}: not for an .xdmf mesh (read as it was converted, with the "
+                                 "project's cell tags; give it to `cosserat-fsi mesh --format xdmf`)")
+            self._dim = dimension(self.path)
+            return self
         self._dim = file_dimension(self.path)
         both = set(self.cells.fluid) & set(self.cells.solid)
         if both:
@@ -128,10 +144,17 @@ class FileGeometry(GeometryBase):
     def content_digest(self) -> str:
         """sha256 of the file's content and of every file it ``Include``s or ``Merge``s (recursively, by
         the names written in it): the mesh's identity, whatever folder holds the case."""
+        if self.path.lower().endswith(".xdmf"):
+            from .xdmf_file import digest
+
+            return digest(self.path)  # the .xdmf, its .h5 and its names table
         return content_digest(self.path)
 
     def msh_params(self) -> dict[str, Any]:
-        """The content hash and the options: the cache key (without ``path``, which the builder reads)."""
+        """The content hash and the options: the cache key (without ``path``, which the builder reads); an
+        .xdmf is not meshed, so not cached (no hash here)."""
+        if self.path.lower().endswith(".xdmf"):
+            return {"path": os.path.abspath(self.path), "format": "xdmf"}
         return {"path": os.path.abspath(self.path), "sha256": self.content_digest(), "fluid": list(self.cells.fluid),
                 "solid": list(self.cells.solid)}
 
