@@ -182,7 +182,7 @@ def test_law_family_admits_its_laws():
 
 def test_the_runner_records_applicability(tmp_path):
     """compare_with_reference (what summary.json's ``benchmark`` block is made of)."""
-    from cosserat_fsi.app.runner import compare_with_reference
+    from cosserat_fsi.app.verdict import compare_with_reference
 
     data = base_scene("turek_hron_cfd1")
     summary = {"final": {"drag": 14.29, "lift": 1.119}, "periodic": {}}

@@ -21,13 +21,11 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import __version__, compat
-from ..analysis import relative_error
 from ..config import Scene, as_scene, dump_resolved
-from ..config.benchmarks import applicability
 from ..config.scene import condition_lines
 from ..config.usage import usage_warnings
 from ..errors import DivergenceError, InputError, InternalError, Interrupted
-from ..exact import EXACT_BENCHMARKS, exact_for
+from ..exact import exact_for
 from ..geometry import build_msh
 from .xdmf_mesh import load as load_xdmf
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
@@ -36,14 +34,14 @@ from ..mesh.report import log_solid_resolution
 from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
 from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
-from ..observables import Observables, schaefer_turek_coefficients
-from ..references import reference_for
+from ..observables import Observables
 from ..simulation import Simulation
 from ..signals import signal_handlers
 from .cases import resolved_scene
 from .progress import advance as _advance, progress_bar as _progress_bar
 from .stop_signals import StopSignals
-from .verdict import check_reference, classify_signals, compare_with_scene_reference, time_summary
+from .verdict import (check_reference, classify_signals, compare_with_reference, compare_with_scene_reference,
+                      time_summary)
 
 log = logging.getLogger("cosserat_fsi")
 
@@ -355,44 +353,6 @@ def _summary(scene, sim, out_dir, n_vertices, setup_time, wall, status, message,
         return summary
 
     return on_root(comm, build_and_write, step="summary")
-
-
-def compare_with_reference(scene, summary: dict) -> dict:
-    """{observable: {value, reference, error}} for the scene's benchmark (relative errors), with ``applicable``
-(and the defining keys that differ: config/benchmarks.py)."""
-    final = summary["final"]
-    if scene.benchmark in EXACT_BENCHMARKS:  # errors against an exact solution: the reference is 0
-        out = {"name": scene.benchmark, **applicability(scene)}
-        for key in ("velocity", "micro_rotation"):
-            if key + "_error" in final:
-                out[key] = {"value": final[key + "_error"], "reference": 0.0, "error": final[key + "_error"]}
-        return out
-    ref = reference_for(scene.benchmark)
-    computed = dict(final)
-    if scene.benchmark in ("schaefer_turek_2d1", "schaefer_turek_3d1z") and "drag" in final:
-        span = 0.41 if scene.benchmark == "schaefer_turek_3d1z" else 1.0  # 3D: the projected area D H
-        computed["c_D"], computed["c_L"] = schaefer_turek_coefficients(
-            final["drag"], final["lift"], scene.fluid.rho, scene.inflow.u_mean, span=span)
-    out = {"name": scene.benchmark, **applicability(scene)}
-    for key, reference in ref.items():
-        if isinstance(reference, dict) and "frequency" in reference:
-            analysis = summary["periodic"].get(key)
-            if not analysis:
-                continue
-            out[key] = {part: {"value": analysis.get(part), "reference": reference[part],
-                               "error": _error(analysis.get(part), reference[part])}
-                        for part in ("mean", "amplitude", "frequency") if part in reference}
-        elif isinstance(reference, float) and key in computed:
-            out[key] = {"value": computed[key], "reference": reference,
-                        "error": _error(computed[key], reference)}
-    return out
-
-
-def _error(value, reference):
-    """Signed relative error (value − reference)/|reference|."""
-    if value is None or reference in (None, 0):
-        return None
-    return relative_error(value, reference) * (1.0 if value >= reference else -1.0)
 
 
 def _json(obj):

@@ -53,6 +53,7 @@ from ..errors import InputError
 from ..io.runfolder import atomic_write_text
 from ..io.safe_yaml import read_text_file, read_yaml_file
 from . import cases
+from .pareto import GROUPS, fronts, pareto, pareto_figure, save_pareto_figure  # noqa: F401 (the study's API)
 
 MAX_RUNS = 1000
 PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_motion", "observables", "output")
@@ -136,7 +137,7 @@ def load_study(path: str | Path) -> Study:
 
 
 def observable_columns(benchmark: str | None) -> list[str]:
-    """The keys of summary.json's benchmark block with an error (app/runner.py ``compare_with_reference``): a
+    """The keys of summary.json's benchmark block with an error (app/verdict.py ``compare_with_reference``): a
     value by its name, a periodic one as ``NAME.mean``, ``.amplitude``, ``.frequency`` (a range has none)."""
     if benchmark is None:
         return []
@@ -278,29 +279,6 @@ def read_summary(folder: Path) -> dict | None:
     return data
 
 
-def pareto(points: list[tuple[float, float]]) -> list[int]:
-    """Indices of the points (cost, error) that no other point beats in both (lower is better)."""
-    front = []
-    for i, (c, e) in enumerate(points):
-        if not any((c2 <= c and e2 <= e) and (c2 < c or e2 < e) for j, (c2, e2) in enumerate(points) if j != i):
-            front.append(i)
-    return front
-
-
-GROUPS = ("fixed δt", "time.tolerance")  # the two series of the Pareto plot
-
-
-def fronts(points: list[tuple[float, float]], groups: list[str]) -> dict[str, list[int]]:
-    """{group: indices of its Pareto front}: the fixed-step runs and the runs with a time.tolerance each
-    have their own front (a group without runs is left out)."""
-    out = {}
-    for group in GROUPS:
-        members = [i for i, g in enumerate(groups) if g == group]
-        if members:
-            out[group] = [members[j] for j in pareto([points[i] for i in members])]
-    return out
-
-
 def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config: Path | None = None) -> Path:
     """Write ``<out>/study_<name>.md`` (and the Pareto plot) from the runs' summaries; returns its path.
     ``config``: the study's scene file; a run made with another scene than the study asks for now is
@@ -338,7 +316,7 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
             labels.append(run)
             groups.append(GROUPS[m["tolerance"] is not None])
     front = fronts(points, groups)
-    figure = _plot(study, points, labels, groups, front, out) if points else None
+    figure = save_pareto_figure(study, points, labels, groups, front, out) if points else None
     lines = [f"# Study `{study.name}`", "",
              f"Written by `cosserat-fsi study` from `{study.config}` with base overrides "
              f"`{json.dumps(study.base)}` over the ladder `{json.dumps(study.ladder)}` "
@@ -355,40 +333,6 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
     path = out / f"study_{study.name}.md"
     atomic_write_text(path, "\n".join(lines) + "\n")
     return path
-
-
-def pareto_figure(study, points, labels, groups, front):
-    """The Pareto plot: worst error against wall time, one labelled series (runs and front) per group. A
-    figure outside pyplot: the caller's matplotlib backend (a notebook's inline one) is left as it is."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7, 4.5))
-    ax = fig.subplots()
-    xs, ys = [p[0] for p in points], [max(p[1], 1e-6) for p in points]
-    for group, members in front.items():
-        mine = [i for i, g in enumerate(groups) if g == group]
-        colour, marker = ("C0", "o") if group == GROUPS[0] else ("C3", "s")
-        ax.loglog([xs[i] for i in mine], [ys[i] for i in mine], marker, color=colour, alpha=0.5, ls="none",
-                  label=f"{group} runs")
-        f = sorted(members, key=lambda i: xs[i])
-        ax.loglog([xs[i] for i in f], [ys[i] for i in f], "-" + marker, color=colour,
-                  label=f"{group}: Pareto front")
-    for x, y, label in zip(xs, ys, labels):
-        ax.annotate(label, (x, y), fontsize=6, xytext=(3, 3), textcoords="offset points")
-    ax.set_xlabel("wall time (s)")
-    ax.set_ylabel("worst relative error of " + ", ".join(study.observables))
-    ax.set_title(f"study {study.name}: accuracy against cost")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return fig
-
-
-def _plot(study, points, labels, groups, front, out: Path) -> str:
-    fig = pareto_figure(study, points, labels, groups, front)
-    path = out / "figures" / f"study_{study.name}_pareto.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    return str(path.relative_to(out))
 
 
 def main_study(path: str | Path, out: str | Path | None = None, jobs: int = 1, report_only: bool = False) -> Path:

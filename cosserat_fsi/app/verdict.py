@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analysis import periodic_analysis, second_half
+from ..analysis import periodic_analysis, relative_error, second_half
 
 TOLERANCES = {
     "schaefer_turek_2d1": {"c_D": 0.005, "c_L": 0.05, "dp": 0.01},
@@ -263,3 +263,46 @@ def _steps_text(time: dict) -> str:
         sizes = f"δt {low:.2g}" if f"{low:.2g}" == f"{high:.2g}" else f"δt {low:.2g}–{high:.2g}"
     return (f"{time.get('steps')} steps, {sizes} (time.tolerance {time['tolerance']:g}), "
             f"{time.get('rejected_steps', 0)} rejected, {end}")
+
+
+def compare_with_reference(scene, summary: dict) -> dict:
+    """{observable: {value, reference, error}} for the scene's benchmark (relative errors), with ``applicable``
+    (and the defining keys that differ: config/benchmarks.py)."""
+    from ..config.benchmarks import applicability
+    from ..exact import EXACT_BENCHMARKS
+    from ..observables import schaefer_turek_coefficients
+    from ..references import reference_for
+
+    final = summary["final"]
+    if scene.benchmark in EXACT_BENCHMARKS:  # errors against an exact solution: the reference is 0
+        out = {"name": scene.benchmark, **applicability(scene)}
+        for key in ("velocity", "micro_rotation"):
+            if key + "_error" in final:
+                out[key] = {"value": final[key + "_error"], "reference": 0.0, "error": final[key + "_error"]}
+        return out
+    ref = reference_for(scene.benchmark)
+    computed = dict(final)
+    if scene.benchmark in ("schaefer_turek_2d1", "schaefer_turek_3d1z") and "drag" in final:
+        span = 0.41 if scene.benchmark == "schaefer_turek_3d1z" else 1.0  # 3D: the projected area D H
+        computed["c_D"], computed["c_L"] = schaefer_turek_coefficients(
+            final["drag"], final["lift"], scene.fluid.rho, scene.inflow.u_mean, span=span)
+    out = {"name": scene.benchmark, **applicability(scene)}
+    for key, reference in ref.items():
+        if isinstance(reference, dict) and "frequency" in reference:
+            analysis = summary["periodic"].get(key)
+            if not analysis:
+                continue
+            out[key] = {part: {"value": analysis.get(part), "reference": reference[part],
+                               "error": _error(analysis.get(part), reference[part])}
+                        for part in ("mean", "amplitude", "frequency") if part in reference}
+        elif isinstance(reference, float) and key in computed:
+            out[key] = {"value": computed[key], "reference": reference,
+                        "error": _error(computed[key], reference)}
+    return out
+
+
+def _error(value, reference):
+    """Signed relative error (value − reference)/|reference|."""
+    if value is None or reference in (None, 0):
+        return None
+    return relative_error(value, reference) * (1.0 if value >= reference else -1.0)
