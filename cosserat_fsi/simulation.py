@@ -108,11 +108,12 @@ class Simulation:
         """A new fluid mesh around the current solid (mesh/remesh.py), every field and history level
         carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
         Returns (and appends to ``remeshes``) the record: t, step, reason, the minimum quality of the fluid
-        cells before/after, seconds."""
+        cells before/after, seconds, the .msh file and its SHA-256 (a restart checks it)."""
         import shutil
         import tempfile
         import time
 
+        from .io.checkpoint import mesh_digest
         from .mesh.remesh import remesh_msh
         from .mesh.transfer import interpolator
 
@@ -144,7 +145,8 @@ class Simulation:
         self.mesh_file = None if scratch else path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
                   "quality_after": self.motion.min_fluid_quality, "seconds": time.perf_counter() - start,
-                  "cells": mesh.topology.index_map(mesh.topology.dim).size_global, "mesh": path.name}
+                  "cells": mesh.topology.index_map(mesh.topology.dim).size_global, "mesh": path.name,
+                  "sha256": None if scratch else self.comm.bcast(mesh_digest(path) if self.comm.rank == 0 else None)}
         self.remeshes.append(record)
         for callback in self.on_remesh:
             callback(self, record)
