@@ -26,6 +26,30 @@ from .timers import Timers
 Callback = Callable[["Simulation"], None]
 
 
+def quadrilateral_limits(scene, mesh) -> None:
+    """A quadrilateral mesh (Q2/Q1 spaces) takes the schemes with the convection in the matrix and the
+    steady equations, a fluid only and no observables at points: the characteristics' back-tracking, the
+    point location of probes and profiles, the mesh motion's quality and remeshing work in triangles.
+    InputError naming the key of the first part a scene asks for that quadrilaterals cannot do."""
+    import dolfinx.mesh
+
+    from .errors import InputError
+
+    if mesh.topology.cell_type != dolfinx.mesh.CellType.quadrilateral:
+        return
+    other = "mesh the file in triangles (no Recombine)"
+    if scene.solid is not None:
+        raise InputError(f"solid: a quadrilateral mesh takes no solid (the mesh motion, its quality and "
+                         f"remeshing work in triangles); {other}")
+    if scene.time.scheme.startswith("characteristics"):
+        raise InputError(f"time.scheme: {scene.time.scheme} follows the characteristics in triangles; a "
+                         f"quadrilateral mesh takes ale_bdf2, generalized_alpha or steady, or {other}")
+    for key in ("points", "lines"):
+        if scene.observables is not None and getattr(scene.observables, key):
+            raise InputError(f"observables.{key}: a quadrilateral mesh takes no {key} (they are located in "
+                             f"triangles); {other}")
+
+
 class Simulation:
     """Problem + state + scheme of one scene.
 
@@ -54,6 +78,7 @@ class Simulation:
 
             facet_ids = on_root(comm, scene_facet_ids, scene.geometry)
         self._prescribed_motion = prescribed_motion
+        quadrilateral_limits(scene, mesh)
         self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact, facet_ids=facet_ids)
         self.motion = self._motion(prescribed_motion)
         self.state = self._new_state()
