@@ -72,7 +72,7 @@ class Fields:
         try:
             self.corners = self.h5["mesh/topology"].shape[1]  # 3: triangles; 4: tetrahedra (a 3D run)
         except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ValueError)
-            raise InputError(f"{self.path}: the mesh is damaged (no readable mesh/topology)") from None
+            raise InputError(f"{self.path}: the mesh is damaged (mesh/topology cannot be read)") from None
         self.triangles = self.cells(0) if self.steps else self.h5["mesh/topology"][:, :3]  # the first mesh
 
     def cells(self, i: int) -> np.ndarray:
@@ -90,7 +90,7 @@ class Fields:
         except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ValueError)
             ok = False
         if not ok:
-            raise InputError(f"{self.path}: the mesh of step {self.steps[i]} is damaged (cells name vertices "
+            raise InputError(f"{self.path}: the mesh is damaged (the cells of step {self.steps[i]} name vertices "
                              "that do not exist)")
         return cells
 
