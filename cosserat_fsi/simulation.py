@@ -26,6 +26,30 @@ from .timers import Timers
 Callback = Callable[["Simulation"], None]
 
 
+def quadrilateral_limits(scene, mesh) -> None:
+    """A quadrilateral mesh (Q2/Q1 spaces) takes the schemes with the convection in the matrix and the
+    steady equations, a fluid only and no observables at points: the characteristics' back-tracking, the
+    point location of probes and profiles, the mesh motion's quality and remeshing work in triangles.
+    InputError naming the key of the first part a scene asks for that quadrilaterals cannot do."""
+    import dolfinx.mesh
+
+    from .errors import InputError
+
+    if mesh.topology.cell_type != dolfinx.mesh.CellType.quadrilateral:
+        return
+    other = "mesh the file in triangles (no Recombine)"
+    if scene.solid is not None:
+        raise InputError(f"solid: a quadrilateral mesh takes no solid (the mesh motion, its quality and "
+                         f"remeshing work in triangles); {other}")
+    if scene.time.scheme.startswith("characteristics"):
+        raise InputError(f"time.scheme: {scene.time.scheme} follows the characteristics in triangles; a "
+                         f"quadrilateral mesh takes ale_bdf2, generalized_alpha or steady, or {other}")
+    for key in ("points", "lines"):
+        if scene.observables is not None and getattr(scene.observables, key):
+            raise InputError(f"observables.{key}: a quadrilateral mesh takes no {key} (they are located in "
+                             f"triangles); {other}")
+
+
 class Simulation:
     """Problem + state + scheme of one scene.
 
@@ -54,6 +78,7 @@ class Simulation:
 
             facet_ids = on_root(comm, scene_facet_ids, scene.geometry)
         self._prescribed_motion = prescribed_motion
+        quadrilateral_limits(scene, mesh)
         self.problem = Problem(scene, mesh, cell_tags, facet_tags, exact=exact, facet_ids=facet_ids)
         self.motion = self._motion(prescribed_motion)
         self.state = self._new_state()
@@ -108,11 +133,12 @@ class Simulation:
         """A new fluid mesh around the current solid (mesh/remesh.py), every field and history level
         carried to it (State.transfer_to), the problem rebuilt; the mesh motion's reference is the new mesh.
         Returns (and appends to ``remeshes``) the record: t, step, reason, the minimum quality of the fluid
-        cells before/after, seconds."""
+        cells before/after, seconds, the .msh file and its SHA-256 (a restart checks it)."""
         import shutil
         import tempfile
         import time
 
+        from .io.checkpoint import mesh_digest
         from .mesh.remesh import remesh_msh
         from .mesh.transfer import interpolator
 
@@ -144,7 +170,8 @@ class Simulation:
         self.mesh_file = None if scratch else path
         record = {"t": self.t, "step": self.step_count, "reason": reason, "quality_before": before,
                   "quality_after": self.motion.min_fluid_quality, "seconds": time.perf_counter() - start,
-                  "cells": mesh.topology.index_map(mesh.topology.dim).size_global, "mesh": path.name}
+                  "cells": mesh.topology.index_map(mesh.topology.dim).size_global, "mesh": path.name,
+                  "sha256": None if scratch else self.comm.bcast(mesh_digest(path) if self.comm.rank == 0 else None)}
         self.remeshes.append(record)
         for callback in self.on_remesh:
             callback(self, record)

@@ -56,7 +56,8 @@ def own_groups(series: dict) -> dict:
 
 
 class Fields:
-    """Read-only view of a run's fields.h5: output times, deformed mesh and vertex values of a step."""
+    """Read-only view of a run's fields.h5: output times, deformed mesh and vertex values of a step. A run
+    that remeshed has several meshes: each step's cells are those of its own mesh (:meth:`cells`)."""
 
     def __init__(self, run_dir: Path):
         """Open and check the pair (InputError naming the file if it is damaged, foreign or missing); a
@@ -67,15 +68,31 @@ class Fields:
         self.times = xdmf_times(Path(run_dir) / "fields.xdmf")
         self.h5 = open_h5(self.path)
         self.steps = step_names(self.h5, len(self.times), self.path)
+        self._cells: dict[str, np.ndarray] = {}
         try:
             self.corners = self.h5["mesh/topology"].shape[1]  # 3: triangles; 4: tetrahedra (a 3D run)
-            self.triangles = self.h5["mesh/topology"][:, :3]
-            n = self.h5[f"mesh/geometry/{self.steps[0]}"].shape[0] if self.steps else 0
-            ok = not self.steps or (self.triangles.min() >= 0 and self.triangles.max() < n)
+        except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ValueError)
+            raise InputError(f"{self.path}: the mesh is damaged (mesh/topology cannot be read)") from None
+        self.triangles = self.cells(0) if self.steps else self.h5["mesh/topology"][:, :3]  # the first mesh
+
+    def cells(self, i: int) -> np.ndarray:
+        """The triangles of step ``i``'s mesh (``mesh/topology``, or after a remesh the dataset named by the
+        step's ``topology`` attribute), checked against its geometry."""
+        try:
+            name = str(self.h5[f"mesh/geometry/{self.steps[i]}"].attrs.get("topology", "mesh/topology"))
+            if name not in self._cells:
+                topology = self.h5[name]
+                if not name.startswith("mesh/topology") or topology.ndim != 2 or topology.shape[1] != self.corners:
+                    raise ValueError
+                self._cells[name] = np.asarray(topology[()])[:, :3]
+            cells, n = self._cells[name], self.h5[f"mesh/geometry/{self.steps[i]}"].shape[0]
+            ok = cells.dtype.kind in "iu" and len(cells) > 0 and cells.min() >= 0 and cells.max() < n
         except Exception:  # noqa: BLE001 (h5py: OSError, KeyError, ValueError)
             ok = False
         if not ok:
-            raise InputError(f"{self.path}: the mesh is damaged (cells name vertices that do not exist)")
+            raise InputError(f"{self.path}: the mesh is damaged (the cells of step {self.steps[i]} name vertices "
+                             "that do not exist)")
+        return cells
 
     def nearest(self, t: float) -> int:
         return int(np.argmin(np.abs(self.times - t)))
@@ -103,7 +120,7 @@ class Fields:
         return self._read(f"point/{name}/{self.steps[i]}", len(self.geometry(i)))
 
     def solid_triangles(self, i: int) -> np.ndarray:
-        data = self._read(f"cell/subdomain/{self.steps[i]}", len(self.triangles))
+        data = self._read(f"cell/subdomain/{self.steps[i]}", len(self.cells(i)))
         if data is None:
             return np.zeros(0, dtype=int)
         return np.where(data.ravel() == 2)[0]
@@ -204,8 +221,9 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
     for i in steps:
         x = np.zeros((len(fields.geometry(i)), 3))
         x[:, :2] = fields.geometry(i)
-        cells = np.hstack([np.full((len(fields.triangles), 1), 3), fields.triangles]).ravel()
-        grid = pv.UnstructuredGrid(cells, np.full(len(fields.triangles), pv.CellType.TRIANGLE), x)
+        triangles = fields.cells(i)  # a remeshed run: the mesh of this step
+        cells = np.hstack([np.full((len(triangles), 1), 3), triangles]).ravel()
+        grid = pv.UnstructuredGrid(cells, np.full(len(triangles), pv.CellType.TRIANGLE), x)
         velocity = fields.point("velocity", i)
         if velocity is None or velocity.ndim != 2:
             raise InputError(f"{fields.path}: point/velocity/{fields.steps[i]} is missing (damaged file)")
@@ -218,7 +236,7 @@ def plot_snapshots(run_dir: Path, out: Path, times: Sequence[float] | None = Non
             panels.append(("ω (1/s)", w.ravel(), "PuOr_r"))
         solid = fields.solid_triangles(i)
         plotter = pv.Plotter(off_screen=True, shape=(len(panels), 1), window_size=(1600, 330 * len(panels)))
-        fluid = np.setdiff1d(np.arange(len(x)), np.unique(fields.triangles[solid])) if len(solid) else slice(None)
+        fluid = np.setdiff1d(np.arange(len(x)), np.unique(triangles[solid])) if len(solid) else slice(None)
         for k, (label, values, cmap) in enumerate(panels):
             plotter.subplot(k, 0)
             mesh = grid.copy()

@@ -31,7 +31,8 @@ from .xdmf_mesh import load as load_xdmf
 from ..io import MovingMeshXDMF, TimeSeriesWriter, read_timeseries
 from ..io.profiles import check_profiles, open_profiles, write_profiles
 from ..mesh.report import log_solid_resolution
-from ..io.checkpoint import check_restart_files, read_checkpoint, scene_fingerprint, write_checkpoint
+from ..io.checkpoint import (check_restart_files, read_checkpoint, read_checkpoint_mesh, scene_fingerprint,
+                             write_checkpoint)
 from ..io.runfolder import atomic_write_text
 from ..parallel import agree, failpoint, is_shared, on_root, share
 from ..observables import Observables
@@ -96,9 +97,8 @@ def run_scene(scene: Scene, out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD, prog
         meta, state = agree(comm, read_checkpoint, out_dir, comm, fingerprint)
     mesh, cell_tags, facet_tags, msh = load_mesh(scene, comm)
     n_vertices = mesh.topology.index_map(0).size_global
-    remeshed = restart and meta.get("mesh") is not None  # the checkpoint's mesh is a remeshed one
-    if remeshed:
-        mesh, cell_tags, facet_tags = compat.read_msh(out_dir / meta["mesh"], comm, gdim=scene.geometry.DIM)
+    if remeshed := restart and meta.get("mesh") is not None:  # the checkpoint's mesh is a remeshed one
+        mesh, cell_tags, facet_tags = read_checkpoint_mesh(out_dir, meta, comm, scene.geometry.DIM)
     signal_handlers(handlers)  # gmsh and PETSc reset SIGINT/SIGTERM (even at the C level): put them back
     sim = Simulation(scene, mesh, cell_tags, facet_tags, comm, exact=exact_for(scene))
     sim.remesh_folder = out_dir / "meshes"

@@ -26,7 +26,8 @@ dimension, and it is read distributed (xdmf_file.py).
 
 A ``.geo`` builds a model and nothing else: commands that run programs, write files or read files outside
 its folder are refused naming the file and line (geo_scan.py) unless ``trusted: true``; a ``.msh`` with
-triangles and quadrilaterals together is refused (one cell type per mesh).
+triangles and quadrilaterals together is refused (one cell type per mesh); what a quadrilateral mesh cannot
+do (the characteristics, a solid, probes and profiles) is refused at setup (simulation.quadrilateral_limits).
 """
 
 from __future__ import annotations

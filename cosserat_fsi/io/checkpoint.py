@@ -41,6 +41,60 @@ def scene_fingerprint(scene) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def mesh_digest(path: Path) -> str:
+    """SHA-256 of a mesh file (a remeshed run records it with the mesh, a restart compares it)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def _msh_cells(path: Path, dim: int) -> int:
+    """The number of ``dim``-cells of a .msh file (gmsh; InputError naming it if gmsh cannot read it)."""
+    import gmsh
+
+    gmsh.initialize(["-nopopup"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.merge(str(path))
+        return sum(len(tags) for tags in gmsh.model.mesh.getElements(dim)[1])
+    except Exception:  # noqa: BLE001 (gmsh raises a bare Exception on a damaged file)
+        raise InputError(f"{path}: cannot be read as a mesh (damaged or cut short)") from None
+    finally:
+        gmsh.finalize()
+
+
+def read_checkpoint_mesh(run_dir: Path, meta: dict, comm, gdim: int):
+    """(mesh, cell_tags, facet_tags) of the remeshed mesh a checkpoint is on (``meta['mesh']``), checked on
+    rank 0 before it is read: present, and the one the checkpoint was written on: its SHA-256 that the
+    remesh record holds, or (a record without it) its cell count. InputError naming the file otherwise."""
+    from .. import compat
+    from ..parallel import on_root
+
+    name = meta["mesh"]
+    if not isinstance(name, str) or not name.startswith("meshes/") or "/" in name[len("meshes/"):]:
+        raise InputError(f"--restart: {Path(run_dir) / 'checkpoint' / 'meta.json'} names a bad mesh ({str(name)[:60]})")
+    path = Path(run_dir) / name
+    records = [r for r in meta.get("remeshes") or [] if isinstance(r, dict) and r.get("mesh") == path.name]
+    record = records[-1] if records else {}
+
+    def check():
+        if not path.is_file():
+            raise InputError(f"{path}: the checkpoint's mesh is {'missing' if not path.exists() else 'not a file'}")
+        if isinstance(record.get("sha256"), str):
+            if mesh_digest(path) != record["sha256"]:
+                raise InputError(f"{path}: is not the mesh the checkpoint was written on (changed since: cut "
+                                 "short or replaced)")
+            return
+        cells = _msh_cells(path, gdim)
+        if isinstance(record.get("cells"), int) and cells != record["cells"]:
+            raise InputError(f"{path}: has {cells} cells, the checkpoint's mesh {record['cells']} (another mesh)")
+
+    on_root(comm, check, step="checkpoint.mesh")
+    return compat.read_msh(path, comm, gdim=gdim)
+
+
 def write_checkpoint(run_dir: Path, sim, comm, meta: dict) -> None:
     """Write the state of every rank and ``meta`` (+ step, t, ranks) into run_dir/checkpoint.
 
