@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
-from faultlib import check, cli, snapshot
+from faultlib import TINY, check, cli, snapshot
 
 
 def _truncate(path, size):
@@ -121,11 +121,24 @@ def _write(path, data: bytes):
     return path
 
 
+@pytest.fixture(scope="module")
+def benchmark_run(tmp_path_factory):
+    """The tiny scene naming the Schäfer–Turek 2D-1 benchmark, run once: a study's
+    observables are columns of a benchmark's table."""
+    config = tmp_path_factory.mktemp("bench") / "tiny.yaml"
+    config.write_text(TINY + "benchmark: schaefer_turek_2d1\n")
+    out = config.parent / "run"
+    result = cli("run", config, "--out", out, "--no-progress")
+    assert result.returncode == 0, result
+    return config, out
+
+
 @pytest.mark.parametrize("summary", ["{broken", "[1, 2, 3]", '{"status": "completed", "wall_time": "x"}'],
                          ids=["not_json", "a_list", "wrong_types"])
-def test_study_report_of_a_damaged_run(tmp_path, tiny_config, finished, summary):
+def test_study_report_of_a_damaged_run(tmp_path, benchmark_run, summary):
     """``--report-only`` over a run folder whose summary.json is damaged: exit 2 naming it."""
-    study = _write(tmp_path / "s.yaml", STUDY.format(config=tiny_config).encode())
+    config, finished = benchmark_run
+    study = _write(tmp_path / "s.yaml", STUDY.format(config=config).encode())
     run = tmp_path / "out" / "runs" / "study-s" / "dt0.05"
     shutil.copytree(finished, run)
     (run / "summary.json").write_text(summary)
