@@ -34,7 +34,6 @@ def _scene(folder: Path, extra: str = "", time: str = "{scheme: steady}") -> Pat
                     "             top: {type: no_slip}, bottom: {type: no_slip}}\n"
                     "observables: {points: {C: [1.0, 0.5]}, lines: {across: {from: [1.3, 0.0], to: [1.3, 1.0], "
                     "points: 11}}, flow_rates: [inlet, outlet]}\n"
-                    "solver: {penalty: 0.0}\n"
                     "output: {progress: false, fields: false}\n" + extra)
     return path
 

@@ -45,9 +45,13 @@ def given(scene, key: str) -> bool:
             return False
         default = type(node).model_fields[part].get_default(call_default_factory=True)
         node = getattr(node, part)
-        if node is None or node == default:
-            return False
+        if node is None or node == default or _zero_vector(node) and _zero_vector(default):
+            return False  # (a zero vector in any dimension: the default, resolved to the scene's dimension)
     return True
+
+
+def _zero_vector(value) -> bool:
+    return isinstance(value, list) and not any(value)
 
 
 def _steady(scene) -> bool:
@@ -207,7 +211,7 @@ def _nodal_characteristics(scene) -> str | None:
 
 
 def _inertia(scene) -> str | None:
-    return _micro_terms(scene) or _steady_only("no time derivative")(scene)
+    return _micro_terms(scene)  # a steady scene too: its micro-acceleration ρ I (u·∇)ω
 
 
 def _inlet_or_lid(scene) -> str | None:

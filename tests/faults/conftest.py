@@ -56,3 +56,15 @@ def mpi_launcher(mpirun) -> list[str]:
     if "Open MPI" in MPI.Get_library_version():
         prefix.append("-q")
     return [*prefix, "-n", "2"]
+
+
+@pytest.fixture(scope="session")
+def benchmark_run(tmp_path_factory):
+    """The tiny scene naming the Schäfer–Turek 2D-1 benchmark, run once: a study's
+    observables are columns of a benchmark's table."""
+    config = tmp_path_factory.mktemp("bench") / "tiny.yaml"
+    config.write_text(TINY + "benchmark: schaefer_turek_2d1\n")
+    out = config.parent / "run"
+    result = cli("run", config, "--out", out, "--no-progress")
+    assert result.returncode == 0, result
+    return config, out

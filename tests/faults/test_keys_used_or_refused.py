@@ -73,7 +73,6 @@ CASES = {  # scene, overrides, the start of the message line
     "lambda2_in_2d": (TINY, ["micropolar.lambda2=0.1"], "micropolar.lambda2: acts in 3D only"),
     "nodal_characteristics_ale": (FSI3, ["micropolar.mu_r=0.1", "micropolar.nodal_characteristics=true"],
                                   "micropolar.nodal_characteristics: only for the characteristics schemes"),
-    "inertia_steady": (POISEUILLE, ["micropolar.inertia=1.0"], "micropolar.inertia: not used by a steady scene"),
     "micropolar_without_fluid": (CSM1, ["micropolar.mu_r=0.1"], "micropolar.mu_r: not used: geometry flag has no "
                                                                 "fluid"),
     "inflow_without_inlet": (CSM3, ["inflow={u_mean: 1.0}"], "inflow: not used: geometry flag has no inlet"),

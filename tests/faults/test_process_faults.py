@@ -99,11 +99,12 @@ STUDY = "name: s\nconfig: {config}\nobservables: [c_D]\nladder: {{time.dt: [0.05
     (lambda s: s["wall_time"].update(total=float("nan")), 0),
     (lambda s: s.update(benchmark={"c_D": {"error": float("inf")}}), 0),
 ], ids=["memory_text", "vertices_inf", "steps_inf", "wall_nan", "error_inf"])
-def test_study_report_over_non_numbers(tmp_path, tiny_config, finished, edit, code):
+def test_study_report_over_non_numbers(tmp_path, benchmark_run, edit, code):
     """``--report-only`` over a summary.json with a non-number where a number belongs: one line naming it, or
     (a nan or an inf measurement) the report shows it and keeps it off the Pareto front."""
+    config, finished = benchmark_run
     study = tmp_path / "s.yaml"
-    study.write_text(STUDY.format(config=tiny_config))
+    study.write_text(STUDY.format(config=config))
     run = tmp_path / "out" / "runs" / "study-s" / "dt0.05"
     shutil.copytree(finished, run)
     summary = json.loads((run / "summary.json").read_text())

@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
-from faultlib import TINY, check, cli, snapshot
+from faultlib import check, cli, snapshot
 
 
 def _truncate(path, size):
@@ -119,18 +119,6 @@ def test_study_of_bad_input(tmp_path, tiny_config, make, expected):
 def _write(path, data: bytes):
     path.write_bytes(data)
     return path
-
-
-@pytest.fixture(scope="module")
-def benchmark_run(tmp_path_factory):
-    """The tiny scene naming the Schäfer–Turek 2D-1 benchmark, run once: a study's
-    observables are columns of a benchmark's table."""
-    config = tmp_path_factory.mktemp("bench") / "tiny.yaml"
-    config.write_text(TINY + "benchmark: schaefer_turek_2d1\n")
-    out = config.parent / "run"
-    result = cli("run", config, "--out", out, "--no-progress")
-    assert result.returncode == 0, result
-    return config, out
 
 
 @pytest.mark.parametrize("summary", ["{broken", "[1, 2, 3]", '{"status": "completed", "wall_time": "x"}'],

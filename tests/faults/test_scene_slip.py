@@ -33,7 +33,7 @@ CASES = {  # (geo, extra YAML, expected message)
                             "boundaries.clamp: type slip on a side of solid cells is not supported"),
     "slip_inside_the_mesh": (_SQUARE + _TWO_NAMES + _CUT, _STEPS + "boundaries: {walls: {type: no_slip}, "
                              "outlet: {type: do_nothing}, cut: {type: slip}}\n",
-                             "boundaries.cut: type slip needs facets on the boundary of the mesh"),
+                             "boundaries.cut: facet group cut of m.geo is inside the domain"),
 }
 
 
