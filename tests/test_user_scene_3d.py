@@ -124,20 +124,7 @@ def test_block_interface_found_from_the_cells(tmp_path):
         cells.indices[cells.values == 2] < mesh.topology.index_map(3).size_local)), op=MPI.SUM)
 
 
-SPLIT = """SetFactory("OpenCASCADE");
-Box(1) = {0, 0, 0, 0.5, 0.4, 0.4};
-Box(2) = {0.5, 0, 0, 0.5, 0.4, 0.4};
-BooleanFragments{ Volume{1}; Delete; }{ Volume{2}; Delete; }
-Mesh.MeshSizeMax = 0.2;
-mid() = Surface In BoundingBox{0.49, -0.01, -0.01, 0.51, 0.41, 0.41};
-inlet() = Surface In BoundingBox{-0.01, -0.01, -0.01, 0.01, 0.41, 0.41};
-outlet() = Surface In BoundingBox{0.99, -0.01, -0.01, 1.01, 0.41, 0.41};
-all() = Surface{:};
-Physical Volume("fluid") = {1, 2}; Physical Surface("inlet") = {inlet()}; Physical Surface("outlet") = {outlet()};
-Physical Surface("mid") = {mid()};
-Physical Surface("walls") = {all()};
-Physical Surface("walls") -= {inlet(), outlet(), mid()};
-"""  # the channel in two halves sharing the face x = 0.5, the surface group "mid"
+SPLIT = (DATA / "split_channel.geo").read_text()  # the channel in two halves, the face group "mid" inside
 
 
 @pytest.mark.mpi

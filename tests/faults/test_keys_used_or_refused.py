@@ -9,6 +9,8 @@ import pytest
 
 from faultlib import REPO, check, cli, in_process_main
 
+REPO_DATA = REPO / "tests" / "data" / "user_scene"
+
 
 @pytest.fixture
 def main(capsys, tmp_path):
@@ -122,20 +124,7 @@ def test_wall_gap_off_is_the_way_to_turn_the_check_off():
         load_scene(REPO / FSI3, ["solid.mesh_motion.wall_gap=none"])
 
 
-SPLIT = """SetFactory("OpenCASCADE");
-Box(1) = {0, 0, 0, 0.5, 0.4, 0.4};
-Box(2) = {0.5, 0, 0, 0.5, 0.4, 0.4};
-BooleanFragments{ Volume{1}; Delete; }{ Volume{2}; Delete; }
-Mesh.MeshSizeMax = 0.2;
-mid() = Surface In BoundingBox{0.49, -0.01, -0.01, 0.51, 0.41, 0.41};
-inlet() = Surface In BoundingBox{-0.01, -0.01, -0.01, 0.01, 0.41, 0.41};
-outlet() = Surface In BoundingBox{0.99, -0.01, -0.01, 1.01, 0.41, 0.41};
-all() = Surface{:};
-Physical Volume("fluid") = {1, 2}; Physical Surface("inlet") = {inlet()}; Physical Surface("outlet") = {outlet()};
-Physical Surface("mid") = {mid()};
-Physical Surface("walls") = {all()};
-Physical Surface("walls") -= {inlet(), outlet(), mid()};
-"""  # two halves of a channel sharing the face x = 0.5 (the surface group "mid", inside the domain)
+SPLIT = (REPO_DATA / "split_channel.geo").read_text()  # the channel in two halves, the face group "mid" inside
 
 
 def test_a_traction_on_an_interior_facet_group_is_refused(main, tmp_path):

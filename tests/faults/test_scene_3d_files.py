@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import pytest
 
-from faultlib import check, cli, in_process_main, snapshot
+from faultlib import REPO, check, cli, in_process_main, snapshot
+
+REPO_DATA = REPO / "tests" / "data" / "user_scene"
 
 BOX = """SetFactory("OpenCASCADE");
 Box(1) = {0, 0, 0, 1, 0.4, 0.4};
@@ -30,20 +32,7 @@ Physical Surface("inlet") = {inlet()}; Physical Surface("outlet") = {outlet()};
 Physical Surface("walls") = {walls()};
 """  # a 0.2 cube (volume 2) inside the channel (volume 3)
 BLOCK_CELLS = 'Physical Volume("fluid") = {3}; Physical Volume("solid") = {2};\n'
-SPLIT = """SetFactory("OpenCASCADE");
-Box(1) = {0, 0, 0, 0.5, 0.4, 0.4};
-Box(2) = {0.5, 0, 0, 0.5, 0.4, 0.4};
-BooleanFragments{ Volume{1}; Delete; }{ Volume{2}; Delete; }
-Mesh.MeshSizeMax = 0.2;
-mid() = Surface In BoundingBox{0.49, -0.01, -0.01, 0.51, 0.41, 0.41};
-inlet() = Surface In BoundingBox{-0.01, -0.01, -0.01, 0.01, 0.41, 0.41};
-outlet() = Surface In BoundingBox{0.99, -0.01, -0.01, 1.01, 0.41, 0.41};
-all() = Surface{:};
-Physical Volume("fluid") = {1, 2}; Physical Surface("inlet") = {inlet()}; Physical Surface("outlet") = {outlet()};
-Physical Surface("mid") = {mid()};
-Physical Surface("walls") = {all()};
-Physical Surface("walls") -= {inlet(), outlet(), mid()};
-"""  # two halves of the channel sharing the face x = 0.5 (the surface group "mid", inside the domain)
+SPLIT = (REPO_DATA / "split_channel.geo").read_text()  # the channel in two halves, the face group "mid" inside
 PRISMS = """Point(1) = {0, 0, 0, 0.2}; Point(2) = {1, 0, 0, 0.2};
 Point(3) = {1, 0.4, 0, 0.2}; Point(4) = {0, 0.4, 0, 0.2};
 Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};
