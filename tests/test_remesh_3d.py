@@ -163,7 +163,8 @@ def _compare(a: dict, b: dict, rtol: float) -> str | None:
     A are small differences of drag-sized terms (uy(A) ≈ 4e-6 m against ux(A) ≈ 9e-3 m)."""
     if list(a) != list(b) or len(a["t"]) != len(b["t"]):
         return f"columns {list(a)} / {list(b)}, lengths {len(a['t'])} / {len(b['t'])}"
-    vectors = {"force": ["drag", "lift"], "surface": ["drag_surface", "lift_surface"], "A": ["ux_A", "uy_A", "uz_A"]}
+    vectors = {"force": ["drag", "lift", "side"], "surface": ["drag_surface", "lift_surface", "side_surface"],
+               "A": ["ux_A", "uy_A", "uz_A"]}
     for key in a:
         group = next((v for v in vectors.values() if key in v), [key])
         scale = max(np.sqrt(sum(a[k] ** 2 for k in group)).max(), 1e-30)
