@@ -158,7 +158,22 @@ def _steady_only(what: str) -> Callable:
 
 
 def _gravity_ramp(scene) -> str | None:
-    return "needs solid.gravity (it ramps the weight; gravity is 0)" if not scene.solid.gravity else None
+    if not scene.solid.gravity:
+        return "needs solid.gravity (it ramps the weight; gravity is 0)"
+    return _solved_after(scene, scene.solid.gravity_ramp_time)
+
+
+def _inflow_ramp(scene) -> str | None:
+    return _solved_after(scene, scene.inflow.ramp_time)
+
+
+def _solved_after(scene, ramp_time: float) -> str | None:
+    """A ramp does nothing in a steady scene solved at or after its end (problem/boundary.py steady_time)."""
+    at = scene.time.steady_at if _steady(scene) else None
+    if _steady(scene) and (at is None or at >= ramp_time):
+        return (f"not used: this steady scene is solved at the end of every ramp (time.steady_at: "
+                f"{'null' if at is None else repr(at)}; give an earlier time.steady_at to solve during it)")
+    return None
 
 
 def _volume_correction(scene) -> str | None:
@@ -289,6 +304,7 @@ RULES: tuple[tuple[str, Callable[[Any], str | None]], ...] = (
     ("micropolar.wall_condition", _micro_terms),
     ("micropolar.nodal_characteristics", _nodal_characteristics),
     ("inflow", _inlet_or_lid),
+    ("inflow.ramp_time", _inflow_ramp),
     ("inflow.profile", _inflow_shape),
     ("inflow.asymmetry", _asymmetry),
     ("output.every", _every),
