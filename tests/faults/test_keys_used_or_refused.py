@@ -88,8 +88,6 @@ CASES = {  # scene, overrides, the start of the message line
                                                                              "stress has no c₂ term"),
     "inflow_of_an_exact_solution": (POISEUILLE, ["inflow={u_mean: 1.0}"], "inflow: not used: benchmark "
                                                                           "micropolar_poiseuille takes its boundary"),
-    "asymmetry_steady": (CFD1, ["inflow.ramp_time=0.5", "time.steady_at=0.5", "inflow.asymmetry=0.1"],
-                         "inflow.asymmetry: acts during the ramp only; this steady scene is solved after it"),
     "inflow_ramp_steady": (CFD1, ["inflow.ramp_time=0.5"],
                            "inflow.ramp_time: not used: this steady scene is solved at the end of every ramp"),
     "gravity_ramp_steady": (CSM1, ["solid.gravity_ramp_time=0.5"],
