@@ -9,9 +9,6 @@ estimate cannot be met by shrinking the step (test_volume_correction_in_one_step
 
 from __future__ import annotations
 
-import json
-import shutil
-
 import numpy as np
 import pytest
 import yaml
@@ -115,11 +112,9 @@ def _on_root(comm, check, *args) -> str | None:
 
 def _cut_after_checkpoint(full, cut, kept) -> str | None:
     """A copy of ``full`` "killed" after its checkpoint ``kept`` (of step 10): later rows half-written."""
-    shutil.copytree(full, cut)
-    shutil.rmtree(cut / "checkpoint")
-    shutil.copytree(kept, cut / "checkpoint")
-    meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
-    lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
+    from test_restart import cut_at_checkpoint
+
+    meta, lines = cut_at_checkpoint(full, cut, kept)
     (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
     with np.load(cut / "checkpoint" / "rank0000.npz") as saved:
         steps = saved["steps"]

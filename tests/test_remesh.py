@@ -202,11 +202,10 @@ RUN = {**SCENE, "solid": {"rho": 1000.0, "mu_s": 5.0e4,
 @pytest.fixture(scope="module")
 def remeshed_runs(tmp_path_factory):
     """The run above, and a copy restarted from its checkpoint of step 4 (after both remeshes)."""
-    import json
     import shutil
     import tempfile
 
-    from test_restart import run_keeping_checkpoint
+    from test_restart import cut_at_checkpoint, run_keeping_checkpoint
 
     from cosserat_fsi.app.runner import run_scene
 
@@ -219,12 +218,8 @@ def remeshed_runs(tmp_path_factory):
     scene = validate_scene(RUN)
     kept = run_keeping_checkpoint(scene, full, comm, 4)  # the run's last checkpoint is of its last step
     if comm.rank == 0:
-        shutil.copytree(full, cut)
-        shutil.rmtree(cut / "checkpoint")
-        shutil.copytree(kept, cut / "checkpoint")
-        meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
+        meta, lines = cut_at_checkpoint(full, cut, kept)
         assert meta["step"] == 4 and meta["mesh"] == "meshes/remesh_002.msh" and len(meta["remeshes"]) == 2
-        lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
         (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 1]))
     comm.barrier()
     run_scene(scene, cut, comm, progress=False, restart=True)

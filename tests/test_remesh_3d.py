@@ -212,7 +212,7 @@ def test_3d_restart_after_a_remesh_reproduces_the_uninterrupted_run():
     gives the uninterrupted run's time series (1e-10)."""
     import json
 
-    from test_restart import run_keeping_checkpoint
+    from test_restart import cut_at_checkpoint, run_keeping_checkpoint
 
     from cosserat_fsi.app.runner import run_scene
     from cosserat_fsi.io import read_timeseries
@@ -226,12 +226,8 @@ def test_3d_restart_after_a_remesh_reproduces_the_uninterrupted_run():
     scene = validate_scene(RUN)
     kept = run_keeping_checkpoint(scene, full, comm, 2)
     if comm.rank == 0:
-        shutil.copytree(full, cut)
-        shutil.rmtree(cut / "checkpoint")
-        shutil.copytree(kept, cut / "checkpoint")
-        meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
+        meta, lines = cut_at_checkpoint(full, cut, kept)
         assert meta["step"] == 2 and meta["mesh"] == "meshes/remesh_002.msh" and len(meta["remeshes"]) == 2
-        lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
         (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 1]))
     comm.barrier()
     run_scene(scene, cut, comm, progress=False, restart=True)

@@ -35,6 +35,16 @@ FSI_GA_CORRECTOR = {**FSI, "time": {**FSI_GA["time"], "corrector_passes": 1}}
 FSI_SVK = {**FSI_ALE, "solid": {"law": "saint_venant_kirchhoff", "rho": 1000.0, "mu_s": 5.0e5, "lambda_s": 2.0e6}}
 
 
+def cut_at_checkpoint(full: Path, cut: Path, kept: Path) -> tuple[dict, list[str]]:
+    """``cut``: a copy of the finished run ``full`` whose checkpoint is ``kept`` (as if killed after it); its
+    meta.json and the lines of its timeseries.csv, for the caller to cut where the kill would have."""
+    shutil.copytree(full, cut)
+    shutil.rmtree(cut / "checkpoint")
+    shutil.copytree(kept, cut / "checkpoint")
+    meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
+    return meta, (cut / "timeseries.csv").read_text().splitlines(keepends=True)
+
+
 def run_keeping_checkpoint(scene, out: Path, comm, step: int) -> Path:
     """Run ``scene`` into ``out`` and keep a copy of its checkpoint of ``step`` (a finished run's checkpoint
     is of its last step): the folder ``out.parent / "checkpoint_STEP"``."""
@@ -79,11 +89,7 @@ def test_restart_reproduces_the_uninterrupted_run(shared_tmp, raw):
     n, every = round(scene.time.t_end / scene.time.dt), scene.output.checkpoint_every
     kept = run_keeping_checkpoint(scene, full, comm, every * ((n - 1) // every))  # the last one before the end
     if comm.rank == 0:  # a copy "killed" after the last checkpoint: later rows and field steps half-written
-        shutil.copytree(full, cut)
-        shutil.rmtree(cut / "checkpoint")
-        shutil.copytree(kept, cut / "checkpoint")
-        meta = json.loads((cut / "checkpoint" / "meta.json").read_text())
-        lines = (cut / "timeseries.csv").read_text().splitlines(keepends=True)
+        meta, lines = cut_at_checkpoint(full, cut, kept)
         (cut / "timeseries.csv").write_text("".join(lines[: meta["rows"] + 2]) + lines[meta["rows"] + 2][:7])
         assert 0 < meta["step"] < len(lines) - 1
     comm.barrier()
