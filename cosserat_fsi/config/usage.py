@@ -126,15 +126,19 @@ def _mumps(scene) -> str | None:
     return None
 
 
-def _penalty(scene) -> str | None:
-    if scene.geometry.name == "file" and scene.boundaries is None:
-        return None  # the conditions by name come with the mesh
-    kinds = {bc.type for bc in scene.conditions().values()}
-    natural = sorted(kinds - {"no_slip", "velocity", "slip"})
+def penalty_unused(kinds) -> str | None:
+    """Why ``solver.penalty`` does nothing given the boundary condition types ``kinds``, or None."""
+    natural = sorted(set(kinds) - {"no_slip", "velocity", "slip"})
     if natural:
         return (f"not used: a boundary of type {natural[0]} determines the pressure (the penalty only fixes the "
                 "pressure's constant where the velocity is prescribed on the whole boundary)")
     return None
+
+
+def _penalty(scene) -> str | None:
+    if scene.geometry.name == "file" and scene.boundaries is None:
+        return None  # the conditions by name come with the mesh: checked where it is read (file.check_scene)
+    return penalty_unused(bc.type for bc in scene.conditions().values())
 
 
 def _c2(scene) -> str | None:

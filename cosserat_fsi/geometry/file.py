@@ -186,10 +186,16 @@ def describe(params: dict[str, Any]) -> dict[str, Any]:
     return {"cell_tags": {"fluid": 1, "solid": 2}, "facet_tags": {}, "points": {}, "path": params["path"]}
 
 
+_ANY_EXTENT = {"y0": 0.0, "height": 1.0, "z0": 0.0, "width": 1.0}  # the condition types do not depend on it
+
+
 def check_scene(scene, names: dict[str, Any]) -> None:
     """The scene against what its file holds (InputError, one line): fluid cells where the scene has a
-    fluid, a solid section exactly when there are solid cells, an ``inlet`` group for an inflow section."""
+    fluid, a solid section exactly when there are solid cells, an ``inlet`` group for an inflow section, and
+    ``solver.penalty`` only where the conditions by name leave the pressure's constant free."""
+    from ..config.usage import given as set_by_user, penalty_unused
     from ..errors import InputError
+    from .presets import default_boundaries
 
     shown = pathlib.Path(scene.geometry.path).name
     dim = names.get("dim", 2)
@@ -248,6 +254,11 @@ def check_scene(scene, names: dict[str, Any]) -> None:
     if scene.inflow is not None and "inlet" not in names["facets"]:
         raise InputError(f"inflow: {shown} has no facet group 'inlet' (it has: "
                          f"{', '.join(sorted(names['facets'])) or 'none'})")
+    if scene.boundaries is None and set_by_user(scene, "solver.penalty"):  # the conditions by name, from the mesh
+        named = {name: tag for name, tag in names["facets"].items() if name not in internal}
+        why = penalty_unused(bc["type"] for bc in default_boundaries(scene, named, _ANY_EXTENT).values())
+        if why is not None:
+            raise InputError(f"solver.penalty: {why}")
 
 
 def names_path(msh: str | os.PathLike) -> pathlib.Path:

@@ -169,3 +169,40 @@ def test_an_unused_output_cadence_is_one_warning_line(tiny_config, tmp_path):
     warned = [line for line in (out / "run.log").read_text().splitlines() if "output.every: not used" in line]
     assert len(warned) == 1, warned
     assert "output.every: not used: output.fields is false" in result.stderr + result.stdout
+
+
+CHANNEL = (REPO_DATA / "channel.geo").read_text().replace(
+    'Physical Curve("bottom") = {1}; Physical Curve("top") = {3};', 'Physical Curve("walls") = {1, 3};')
+BOX = (REPO_DATA / "channel.geo").read_text().split("Physical Curve")[0] + 'Physical Curve("walls") = {1, 2, 3, 4};\n'
+NO_BOUNDARIES = ("geometry: {{name: file, path: m.geo}}\nfluid: {{rho: 1.0, mu: 1.0}}\n{inflow}"
+                 "solver: {{penalty: 1.0e-8}}\ntime: {{scheme: steady}}\n")
+
+
+def test_a_penalty_where_the_mesh_names_an_outlet_is_refused(main, tmp_path):
+    """A file scene without a boundaries section takes its conditions by name from the mesh: the outlet is
+    do_nothing, which fixes the pressure, so the penalty set does nothing — refused once the names are read."""
+    assert 'Physical Curve("walls")' in CHANNEL
+    (tmp_path / "m.geo").write_text(CHANNEL)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(NO_BOUNDARIES.format(inflow="inflow: {u_mean: 1.0}\n"))
+    code, err = main("run", scene, "--out", main.out)
+    lines = err.splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, (code, err)
+    assert lines[0].startswith("error: solver.penalty: not used: a boundary of type do_nothing determines the "
+                               "pressure"), err
+
+
+def test_a_penalty_in_a_closed_file_box_is_kept(tmp_path):
+    """The same check lets the penalty through where every named boundary is a wall (there it fixes the
+    pressure's constant), and refuses it for the same scene once the mesh also names an outlet."""
+    from cosserat_fsi.config import load_scene
+    from cosserat_fsi.errors import InputError
+    from cosserat_fsi.geometry.file import check_scene
+
+    (tmp_path / "m.geo").write_text(BOX)
+    path = tmp_path / "scene.yaml"
+    path.write_text(NO_BOUNDARIES.format(inflow=""))
+    scene = load_scene(path)
+    check_scene(scene, {"dim": 2, "facets": {"walls": 1}, "cells": {"fluid": 64}})
+    with pytest.raises(InputError, match="^solver.penalty: not used: a boundary of type do_nothing"):
+        check_scene(scene, {"dim": 2, "facets": {"walls": 1, "outlet": 2}, "cells": {"fluid": 64}})
