@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from inprocess import main_in_process, under_mpi
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 TIMEOUT = 120  # s, any subprocess (a hang fails the case)
@@ -47,8 +49,13 @@ class Result:
                 f"stdout:\n{self.stdout[-2000:]}")
 
 
-def cli(*args, timeout: float = TIMEOUT, launcher=(), cwd=None, **environ) -> Result:
-    """``python -m cosserat_fsi ARGS`` (bytes or str), with a timeout: a hang fails the case."""
+def cli(*args, timeout: float = TIMEOUT, launcher=(), cwd=None, subprocess_only=False, **environ) -> Result:
+    """``python -m cosserat_fsi ARGS`` (bytes or str), with a timeout: a hang fails the case. In this process
+    (``cli.main``, the same code after the interpreter's start) unless the case needs a process of its own: a
+    launcher, a working folder, environment variables, a signal or a kill from outside (``subprocess_only``),
+    or a pytest itself under MPI (the case is a serial run)."""
+    if not (launcher or cwd is not None or environ or subprocess_only or under_mpi()):
+        return _in_process(args, timeout)
     cmd = [*launcher, sys.executable, "-m", "cosserat_fsi", *[a if isinstance(a, bytes) else str(a) for a in args]]
     start = time.monotonic()
     try:
@@ -57,6 +64,13 @@ def cli(*args, timeout: float = TIMEOUT, launcher=(), cwd=None, **environ) -> Re
         pytest.fail(f"hang: {' '.join(map(str, cmd))} did not end within {timeout} s\n{exc.stderr!r}")
     return Result(proc.returncode, proc.stdout.decode("utf-8", "replace"),
                   proc.stderr.decode("utf-8", "replace"), time.monotonic() - start)
+
+
+def _in_process(args, timeout: float) -> Result:
+    code, out, err, seconds = main_in_process(args, timeout)
+    if code is None:
+        pytest.fail(f"hang: cosserat-fsi {' '.join(map(str, args))} did not end within {timeout} s\n{err}")
+    return Result(code, out, err, seconds)
 
 
 def check(result: Result, code: int, start: str | None = None, contains: str | None = None) -> str:
