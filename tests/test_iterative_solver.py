@@ -311,3 +311,24 @@ def test_a_completed_steady_iterative_run_exits_cleanly(run_cli, tmp_path):
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "SEGV" not in done.stderr
     assert '"status": "completed"' in (tmp_path / "run" / "summary.json").read_text()
+
+
+def test_the_streamline_diffusion_is_integrated_at_its_polynomial_degree():
+    """The steady AMG's matrix J + ρδ((w·∇)δu, (w·∇)v) integrates the streamline diffusion at degree 6 (w and δu of
+    degree 2): UFL's estimate for δ's square root and conditional took 1,000 points per tetrahedron, and J + SD
+    cost 13 × J to assemble on 3D-1Z level 1 (42 s against 3.2 s) for the same FGMRES counts and c_D
+    (docs/perf_scale_3d.md, "A 2 M-tetrahedra mesh: memory by part")."""
+    from types import SimpleNamespace
+
+    from cosserat_fsi.solvers.oseen_preconditioner import STREAMLINE_DEGREE, streamline_diffusion
+
+    mesh = dolfinx.mesh.create_unit_cube(MPI.COMM_SELF, 1, 1, 1)
+    V = compat.function_space(mesh, "Lagrange", 2, shape=(3,))
+    problem = SimpleNamespace(mesh=mesh, rho=dolfinx.fem.Constant(mesh, 1.0), mu=dolfinx.fem.Constant(mesh, 1e-3),
+                              mu_r=None, scene=SimpleNamespace(fluid=SimpleNamespace(rho=1.0)))
+    w = dolfinx.fem.Function(V)
+    w.interpolate(lambda x: np.stack([1.0 + x[1] * x[2], x[0], 0.0 * x[0]]))
+    form = streamline_diffusion(problem, w, ufl.TrialFunction(V), ufl.TestFunction(V))
+    assert STREAMLINE_DEGREE == 6
+    assert [i.metadata().get("quadrature_degree") for i in form.integrals()] == [STREAMLINE_DEGREE]
+    assert compat.form(form) is not None

@@ -25,6 +25,11 @@ Newton step (level 0), 1/16 did not converge (docs/perf_linear_solvers.md,
 "Steady Newton: PCD with outflow conditions and a streamline-diffusion AMG")."""
 
 
+STREAMLINE_DEGREE = 6
+"""Quadrature degree of the streamline diffusion: that of ((w·∇)δu, (w·∇)v) with w and δu of degree 2 (UFL's
+estimate, with δ's square root and conditional, took 1,000 points per tetrahedron)."""
+
+
 def streamline_diffusion(problem, velocity, du, v):
     """ρ δ_K ((w·∇)δu, (w·∇)v) with the cell-wise δ_K of :data:`STREAMLINE_SCALE` (h the cell diameter)."""
     rho = problem.rho
@@ -33,7 +38,8 @@ def streamline_diffusion(problem, velocity, du, v):
     speed = ufl.sqrt(ufl.dot(velocity, velocity) + 1e-300)
     peclet = speed * h / (2 * nu)
     delta = ufl.conditional(ufl.gt(peclet, 1.0), STREAMLINE_SCALE * h / (2 * speed) * (1 - 1 / peclet), 0.0)
-    return rho * delta * ufl.inner(ufl.grad(du) * velocity, ufl.grad(v) * velocity) * ufl.dx(domain=problem.mesh)
+    dx = ufl.dx(domain=problem.mesh, metadata={"quadrature_degree": STREAMLINE_DEGREE})
+    return rho * delta * ufl.inner(ufl.grad(du) * velocity, ufl.grad(v) * velocity) * dx
 
 
 def convection_form(problem, velocity):
