@@ -138,22 +138,29 @@ print("JSON" + json.dumps(out))
 """
 
 
+USER_FILE = "tests/data/user_scene/turek_hron_3d_fsi.yaml"  # the user's .geo twin of turek_hron_3d_fsi.yaml
+USER_RAMP = ("boundaries.inflow.value=['36*y*(0.41 - y)*z*(0.41 - z)/0.41**4 * (1 - cos(pi*min(t, 0.05)/0.05))/2',"
+             " 0, 0]")  # its inflow ramped in over 0.05 s, as the preset's below
+
+
 def _scene_run(run_cli, repo_root, out, config, launcher=()):
-    proc = run_cli("run", repo_root / "configs" / config, "--out", out, "--no-progress", "--overwrite",
-                   "--set", "time.t_end=0.01", "--set", "output.every=1", "--set", "inflow.ramp_time=0.05",
+    ramp = USER_RAMP if config == USER_FILE else "inflow.ramp_time=0.05"
+    proc = run_cli("run", repo_root / config, "--out", out, "--no-progress", "--overwrite",
+                   "--set", "time.t_end=0.01", "--set", "output.every=1", "--set", ramp,
                    launcher=launcher, timeout=1800)
     assert proc.returncode == 0, proc.stderr
     return read_timeseries(out / "timeseries.csv")
 
 
-@pytest.mark.parametrize("config", ["turek_hron_3d_fsi.yaml",
-                                    pytest.param("turek_hron_3d_cosserat_fsi.yaml", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("config", [USER_FILE, pytest.param("configs/turek_hron_3d_cosserat_fsi.yaml",
+                                                            marks=pytest.mark.slow)], ids=["user_file", "cosserat"])
 @pytest.mark.slow
 def test_3d_fsi_scene_serial_equals_two_ranks_and_paraview_reads_it(run_cli, repo_root, tmp_path, mpirun, config):
-    """The shipped 3D FSI scenes (level 0) for 2 BDF2 steps with the inflow ramped in over 0.05 s: every
-    column of the time series (forces, tip displacement, energies, flow rate, ω_max) the same on 1 and 2
-    ranks to 1e-8 (relative to the column's size); the energy finite, growing with the inflow and below
-    ½ρ (2.25 Ū)² |Ω| (measured 0.151, 2.29 J); the fields.xdmf of the 2-rank run read by VTK (pyvista) and, where
+    """A 3D FSI scene (level 0) for 2 BDF2 steps with the inflow ramped in over 0.05 s — the user's .geo twin of
+    turek_hron_3d_fsi.yaml (its own names, a solid volume; equal to the preset to 1e-6, test_user_scene) and the
+    shipped micropolar scene: every column of the time series (forces, tip displacement, energies, flow rate,
+    ω_max) the same on 1 and 2 ranks to 1e-8 (relative to the column's size); the energy finite, growing with
+    the inflow and below ½ρ (2.25 Ū)² |Ω|; the fields.xdmf of the 2-rank run read by VTK (pyvista) and, where
     installed, by pvpython: 3 time levels, the tetrahedral mesh with 3-component velocity (and
     micro-rotation), the moving point A where timeseries.csv puts it."""
     import pyvista as pv
