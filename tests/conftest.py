@@ -34,7 +34,7 @@ os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(REPO / "meshes"))
 if str(REPO / "campaigns") not in sys.path:
     sys.path.insert(0, str(REPO / "campaigns"))
 
-from inprocess import main_in_process, under_mpi  # noqa: E402 (tests/ is on the path once this file is read)
+from inprocess import main_in_process, own_process, under_mpi  # noqa: E402 (tests/ is on the path once this file is read)
 
 
 @pytest.fixture(scope="session")
@@ -100,7 +100,8 @@ def subprocess_env() -> dict[str, str]:
 class _Cli:
     """``run_cli(*args, launcher=(), cwd=None, timeout=600)``: ``python -m cosserat_fsi ARGS``, output captured
     as text: in this process (tests/inprocess.py) unless under ``launcher`` (e.g. ``mpirun(2)``), in ``cwd``,
-    with ``subprocess_only=True`` or from a pytest under MPI — then a subprocess. ``run_cli.command(*args)``
+    with ``subprocess_only=True``, ``plot`` (inprocess.own_process) or from a pytest under MPI — then a
+    subprocess. ``run_cli.command(*args)``
     and ``run_cli.env`` are the pieces, for a ``subprocess.Popen`` that a test signals."""
 
     env = property(lambda self: subprocess_env())
@@ -111,7 +112,7 @@ class _Cli:
 
     def __call__(self, *args, launcher=(), cwd=None, timeout: float = 600,
                  subprocess_only=False) -> subprocess.CompletedProcess:
-        if not (launcher or cwd is not None or subprocess_only or under_mpi()):
+        if not (launcher or cwd is not None or subprocess_only or under_mpi() or own_process(args)):
             code, out, err, _ = main_in_process(args, timeout)
             if code is None:
                 raise subprocess.TimeoutExpired(self.command(*args), timeout, out, err)

@@ -1,7 +1,8 @@
 """The command line run in the test process: ``cli.main(ARGS)``, the same code a ``python -m cosserat_fsi``
 subprocess runs after the interpreter's start and imports (2 of a small run's 3 s). Used by the fault suite's
 ``cli`` and by the ``run_cli`` fixture whenever a case needs no process of its own (a launcher, a working
-folder, environment variables, a signal or a kill from outside, or a pytest itself under MPI)."""
+folder, environment variables, a signal or a kill from outside, ``plot``'s VTK window, or a pytest itself
+under MPI)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,13 @@ import time
 def under_mpi() -> bool:
     """Whether this pytest is one rank of several (a CLI case is then a serial run of its own)."""
     return any(os.environ.get(key, "1") != "1" for key in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"))
+
+
+def own_process(args) -> bool:
+    """Whether the command needs a process of its own: ``plot`` renders its snapshots with VTK, whose
+    off-screen window aborts the process the second time one is opened in it (measured: "Fatal Python error:
+    Aborted" in pyvista's render, in a pytest worker that had plotted before)."""
+    return bool(args) and (os.fsdecode(args[0]) if isinstance(args[0], bytes) else str(args[0])) == "plot"
 
 
 class Hang(BaseException):

@@ -148,5 +148,7 @@ def test_solid_order_on_a_random_step_sequence(scheme):
     errors = np.array([abs(_flag_uy(scheme, steps(n, 0.3)) - ref) for n in counts])
     constant = np.abs(constant_values - ref)
     rates = np.log2(errors[:-1] / errors[1:])
+    constant_rates = np.log2(constant[:-1] / constant[1:])  # the constant steps' own order (test_fsi's, here)
     assert np.all(errors < 1.5 * constant), (errors, constant)
     assert np.all((rates > 1.5) & (rates < 3.2)), (errors, rates)
+    assert np.all((constant_rates > 1.5) & (constant_rates < 3.2)), (constant, constant_rates)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from inprocess import main_in_process, under_mpi
+from inprocess import main_in_process, own_process, under_mpi
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -53,8 +53,8 @@ def cli(*args, timeout: float = TIMEOUT, launcher=(), cwd=None, subprocess_only=
     """``python -m cosserat_fsi ARGS`` (bytes or str), with a timeout: a hang fails the case. In this process
     (``cli.main``, the same code after the interpreter's start) unless the case needs a process of its own: a
     launcher, a working folder, environment variables, a signal or a kill from outside (``subprocess_only``),
-    or a pytest itself under MPI (the case is a serial run)."""
-    if not (launcher or cwd is not None or environ or subprocess_only or under_mpi()):
+    ``plot`` (inprocess.own_process), or a pytest itself under MPI (the case is a serial run)."""
+    if not (launcher or cwd is not None or environ or subprocess_only or under_mpi() or own_process(args)):
         return _in_process(args, timeout)
     cmd = [*launcher, sys.executable, "-m", "cosserat_fsi", *[a if isinstance(a, bytes) else str(a) for a in args]]
     start = time.monotonic()
