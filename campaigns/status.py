@@ -2,6 +2,7 @@
 
     python campaigns/status.py                 # run the quick scenes as shipped, rewrite README's table
     python campaigns/status.py --all           # also the long time-dependent ones (hours: CFD3, FSI3, seed runs)
+    python campaigns/status.py --also turek_hron_cfd3 --also turek_hron_fsi3   # some of the long ones
     python campaigns/status.py --print         # only print the table (runs what is missing)
 
 Each ``configs/*.yaml`` runs unchanged (no ``--set``) into ``runs/status/<scene>/`` (a finished run is not
@@ -66,11 +67,12 @@ def table(runs: Path, scenes: list[str]) -> list[str]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--all", action="store_true", help="also the long time-dependent scenes")
+    parser.add_argument("--also", action="append", default=[], choices=LONG, help="a long scene to run too")
     parser.add_argument("--print", action="store_true", help="print the table, leave README.md alone")
     parser.add_argument("--runs", type=Path, default=ROOT / "runs" / "status")
     args = parser.parse_args(argv)
     scenes = QUICK + LONG
-    todo = QUICK + (LONG if args.all else [])
+    todo = QUICK + (LONG if args.all else [n for n in LONG if n in args.also])
     run_cases([Case(ROOT / "configs" / f"{name}.yaml", args.runs / name) for name in todo], cwd=ROOT,
               report=lambda folder: print(f"{folder.name}: done", flush=True))
     versions = {}
