@@ -77,12 +77,14 @@ PY := $(RUN_VENV)/bin/python
 LAUNCH := $(if $(filter-out 1,$(NP)),$(RUN_MPI) -n $(NP) ,)
 
 PYTEST_FLAGS := -q -rs --durations=15
-# The serial suites on two pytest-xdist workers, one per core; load: the tests are handed out from the front of
-# the list as the workers free up, and the long ones come first (tests/conftest.py), so the run ends on short
-# tests on both cores. (worksteal split the list in halves: one worker took every long test and the run ended on
-# it alone, the last 4 % of the Debian suite 260 of its 903 s.) Each worker frees what a test
+# The serial suites on two pytest-xdist workers, one per core; load with chunks of 2: the tests are handed out
+# from the front of the list, two at a time, as the workers free up, and the long ones come first
+# (tests/conftest.py), so both cores share the long tests and the run ends on short ones. (worksteal split the
+# list in halves and load's default first chunk is a quarter of it: either way one worker took every long test
+# and the run ended on it alone; worksteal: the last 4 % of the Debian suite took 260 of its 903 s.) Each worker
+# frees what a test
 # built after it (tests/conftest.py) and the run's last lines give the peak memory of a test process.
-PYTEST_SERIAL_FLAGS := $(PYTEST_FLAGS) -n 2 --dist load
+PYTEST_SERIAL_FLAGS := $(PYTEST_FLAGS) -n 2 --dist load --maxschedchunk 2
 # Under mpirun both ranks would race on .pytest_cache.
 PYTEST_MPI_FLAGS := $(PYTEST_FLAGS) -p no:cacheprovider --color=no -m mpi
 
