@@ -39,19 +39,10 @@ os.environ.setdefault("COSSERAT_FSI_MESH_CACHE", str(ROOT / "meshes"))
 
 from compare import coefficients, errors, reference  # noqa: E402 (the example's own script)
 
+from cosserat_fsi.app.cases import mpi_launcher  # noqa: E402
+
 PARAMETER = re.compile(r"^([A-Za-z_][A-Za-z_0-9]*)=([0-9.eE+-]+)$")
 TOLERANCE = 0.5  # percent: the target for c_D, c_L and dp
-
-
-def launcher(ranks: int) -> list[str]:
-    """mpirun (Open MPI, Debian) or the venv's mpiexec (MPICH, the wheel); nothing for one rank."""
-    if ranks == 1:
-        return []
-    from mpi4py import MPI
-
-    if "Open MPI" in MPI.Get_library_version():
-        return ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)]
-    return [str(Path(sys.executable).parent / "mpiexec"), "-n", str(ranks)]
 
 
 def parse_size(spec: str) -> dict[str, float]:
@@ -90,7 +81,8 @@ def run_one(base: str, params: dict[str, float], out: Path, ranks: int, sets: li
     run = out / geo.stem
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    argv = [*launcher(ranks), sys.executable, "-m", "cosserat_fsi", "run", str(EXAMPLE / "duct.yaml"), "--out",
+    launch = mpi_launcher(ranks) if ranks > 1 else []
+    argv = [*launch, sys.executable, "-m", "cosserat_fsi", "run", str(EXAMPLE / "duct.yaml"), "--out",
             str(run), "--overwrite", "--no-progress", "--set", f"geometry.path={geo}"]
     for item in sets:
         argv += ["--set", item]
