@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from cosserat_fsi.app.study import pareto
+from cosserat_fsi.app.study import pareto, quantity_fronts
 
 REPO_CONFIG = "configs/schaefer_turek_2d1.yaml"
 
@@ -21,6 +21,14 @@ def _study(tmp_path, text):
 def test_pareto_front():
     points = [(10, 0.1), (20, 0.05), (15, 0.2), (30, 0.05), (5, 0.5)]
     assert sorted(pareto(points)) == [0, 1, 4]
+
+
+def test_each_quantity_has_its_own_front():
+    """A run can be on one quantity's front and off another's: the cheap run is the best for `a` only."""
+    rows = quantity_fronts(["a", "b"], [10.0, 40.0, 20.0], [[0.01, -0.5], [0.02, 0.01], [0.03, 0.2]],
+                           ["cheap", "fine", "middle"])
+    assert rows[2] == "| a | `cheap` (+1 %, 10 s) |"
+    assert rows[3] == "| b | `cheap` (-50 %, 10 s), `middle` (+20 %, 20 s), `fine` (+1 %, 40 s) |"
 
 
 @pytest.mark.slow
@@ -40,6 +48,7 @@ def test_study_runs_resumes_and_reports(run_cli, tmp_path, repo_root):
         row = next(line for line in report.splitlines() if line.startswith(f"| {run} |"))
         assert f"{s['benchmark']['c_D']['error']:+.2%}" in row and f"{s['wall_time']['per_step']:.4f}" in row
     assert "Pareto front" in report and (out / "figures" / "study_tiny_pareto.png").stat().st_size > 1000
+    assert next(line for line in report.splitlines() if line.startswith("| dp | `"))  # a front per quantity
     stamps = {p: p.stat().st_mtime_ns for p in runs.glob("*/summary.json")}
     again = run_cli("study", study, "--out", out)  # resumes: nothing is run again
     assert again.returncode == 0 and {p: p.stat().st_mtime_ns for p in stamps} == stamps

@@ -28,6 +28,19 @@ def fronts(points: list[tuple[float, float]], groups: list[str]) -> dict[str, li
     return out
 
 
+def quantity_fronts(observables: list[str], walls: list[float], errors: list[list[float]],
+                    labels: list[str]) -> list[str]:
+    """Markdown rows ``| quantity | front |``: for each observable, the runs no other run beats in both wall
+    time and that quantity's |error| (fastest first), each with its error and wall time."""
+    rows = ["| quantity | Pareto front: run (error, wall time), fastest first |", "|---|---|"]
+    for k, name in enumerate(observables):
+        points = [(w, abs(e[k])) for w, e in zip(walls, errors)]
+        members = sorted(pareto(points), key=lambda i: walls[i])
+        rows.append(f"| {name} | " + ", ".join(f"`{labels[i]}` ({100 * errors[i][k]:+.3g} %, {walls[i]:.3g} s)"
+                                                for i in members) + " |")
+    return rows
+
+
 def pareto_figure(study, points, labels, groups, front):
     """The Pareto plot: worst error against wall time, one labelled series (runs and front) per group. A
     figure outside pyplot: the caller's matplotlib backend (a notebook's inline one) is left as it is."""

@@ -53,7 +53,7 @@ from ..errors import InputError
 from ..io.runfolder import atomic_write_text
 from ..io.safe_yaml import read_text_file, read_yaml_file
 from . import cases
-from .pareto import GROUPS, fronts, pareto, pareto_figure, save_pareto_figure  # noqa: F401 (the study's API)
+from .pareto import GROUPS, fronts, pareto, quantity_fronts, pareto_figure, save_pareto_figure  # noqa: F401 (the study's API)
 
 MAX_RUNS = 1000
 PHASES = ("assemble_matrix", "backtrack", "assemble_vector", "solve", "mesh_motion", "observables", "output")
@@ -286,7 +286,7 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
     written before summaries held ``resolved_scene``) keeps its numbers, marked, off the Pareto front. A run
     whose scene is not its benchmark's problem keeps its numbers (differences from a reference that does not
     apply), marked, off the Pareto front."""
-    rows, points, labels, groups = [], [], [], []
+    rows, points, labels, groups, every_error = [], [], [], [], []
     head = ("| run | vertices | dofs | status | steps | " + " | ".join(f"error {k}" for k in study.observables)
             + " | wall (s) | s/step | " + " | ".join(PHASES) + " | peak memory (MiB) |")
     rows += [head, "|" + "---|" * (head.count("|") - 1)]
@@ -313,6 +313,7 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
         if (m["status"] == "completed" and m["applicable"] and not why and all(e is not None for e in errs)
                 and all(map(math.isfinite, [m["wall"], *errs]))):  # nan/inf are shown, kept off the front
             points.append((m["wall"], max(abs(e) for e in errs)))
+            every_error.append(errs)
             labels.append(run)
             groups.append(GROUPS[m["tolerance"] is not None])
     front = fronts(points, groups)
@@ -330,6 +331,9 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
                               for i in sorted(members, key=lambda i: points[i][0])), ""]
     if figure:
         lines += [f"![pareto]({figure})", ""]
+    if len(study.observables) > 1 and points:
+        lines += ["Each quantity on its own (all runs of the fronts above):", "",
+                  *quantity_fronts(study.observables, [p[0] for p in points], every_error, labels), ""]
     path = out / f"study_{study.name}.md"
     atomic_write_text(path, "\n".join(lines) + "\n")
     return path
