@@ -49,6 +49,20 @@ def test_drag_like_at_twice_the_frequency():
     assert periodic_analysis(T, y + 1.0 * np.sin(W * T))["frequency"] == pytest.approx(8.8, rel=1e-3)
 
 
+def test_alternating_cycles_give_the_envelope_wherever_the_record_ends():
+    """A 2f signal with a 1f component (FSI3's ux(A), drag: the flag swings further to one side) alternates
+    between two cycle shapes (minima -5.4 and -6.0 here); mean and amplitude are those of both, whichever
+    cycle is last. Exact: max -3 + 2.7 + 0.3²/21.6 at sin θ = 1/36, min -6."""
+    y = -3 + 2.7 * np.cos(2 * W * T) + 0.3 * np.sin(W * T)
+    top, bottom = -0.3 + 0.3 ** 2 / 21.6, -6.0
+    for end in (2.9, 2.9 + 1 / 8.8):  # the record ends after one cycle shape, then after the other
+        keep = T <= end
+        r = periodic_analysis(T[keep], y[keep])
+        assert r["frequency"] == pytest.approx(8.8, rel=1e-3)
+        assert r["mean"] == pytest.approx((top + bottom) / 2, abs=1e-5)
+        assert r["amplitude"] == pytest.approx((top - bottom) / 2, abs=1e-5)
+
+
 def test_constant():
     r = periodic_analysis(T, np.full_like(T, 7.0))
     assert r["mean"] == 7.0 and r["amplitude"] == 0.0 and r["frequency"] is None
