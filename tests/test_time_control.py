@@ -102,6 +102,29 @@ def test_the_controller_contract_on_a_scripted_error():
     assert dts.max() / dts.min() > 10.0  # the feature at t = 0.4 did shape the steps
 
 
+def test_a_step_that_keeps_shrinking_is_said_in_the_log(caplog):
+    """The sharp feature at t = 0.4 takes the step below a tenth of its largest: one warning, at that time,
+    naming the field whose estimate drives it; a smooth error says nothing."""
+    with caplog.at_level("WARNING", logger="cosserat_fsi"):
+        stepper = _run(_control(t_end=1.0))
+    lines = [r.getMessage() for r in caplog.records if "time step has shrunk" in r.getMessage()]
+    assert len(lines) >= 1 and all("(velocity" in line for line in lines), lines
+    assert 0.3 < float(lines[0].split()[2].rstrip(":")) < 0.45 and max(stepper.accepted) / min(stepper.accepted) > 10
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="cosserat_fsi"):
+        _run(_control(t_end=1.0), lambda t, dt: (dt / 0.02) ** 3)
+    assert not [r for r in caplog.records if "shrunk" in r.getMessage()]
+
+
+def test_the_estimate_names_the_part_that_dominates():
+    """E² split per part (velocity, solid displacement) for the log; E itself is the RMS over both parts."""
+    c = _control()
+    parts = [(np.full((4, 2), 1e-6), np.ones((4, 2))), (np.full((2, 2), 1e-4), np.ones((2, 2)))]
+    e = c.norm(parts, [np.ones(4), np.ones(2)])
+    assert e == pytest.approx(np.sqrt((8 * 1e-12 + 4 * 1e-8) / 12) / c.step_tolerance)
+    assert c._shares[1] > 0.99 and sum(c._shares) == pytest.approx(1.0)
+
+
 def test_a_step_the_mesh_cannot_follow_is_rejected_and_retried_smaller():
     """A mesh motion that fails (here: any step longer than 0.004 that reaches into [0.3, 0.35)) rejects the
     step like a non-finite solution (δt / 4), the run goes on; failing even at dt_min, it stops naming the

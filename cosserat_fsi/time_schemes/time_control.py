@@ -52,6 +52,8 @@ class TimeControl:
         self.floor = float(time.error_floor) if time.error_floor is not None else 0.01
         self.step_tolerance = self.tolerance ** ((order + 1.0) / order)
         self._rejected_now = False
+        self._largest = (0.0, 0.0)  # the largest accepted step since the last "shrinking" line, and its time
+        self._shares: list[float] = []  # each part's share of the last E² (velocity, displacement)
 
     @classmethod
     def of(cls, time, order: int, comm) -> TimeControl | None:
@@ -123,19 +125,36 @@ class TimeControl:
         return [size + floor * scale for size, scale in zip(sizes, scales)]
 
     def norm(self, parts, weights) -> float:
-        """E: the weighted RMS over every owned dof of every part on all ranks, over the per-step tolerance."""
-        sums = np.zeros(2)
-        for (diff, _), weight in zip(parts, weights):
+        """E: the weighted RMS over every owned dof of every part on all ranks, over the per-step tolerance
+        (each part's share of E² is kept for the log)."""
+        sums, shares = np.zeros(2), np.zeros(len(parts))
+        for k, ((diff, _), weight) in enumerate(zip(parts, weights)):
             w = weight[:, None]
             ratio = np.divide(diff, w, out=np.zeros_like(diff), where=w > 0.0).ravel()
-            sums += (ratio @ ratio, len(ratio))
+            shares[k] = ratio @ ratio
+            sums += (shares[k], len(ratio))
         total, count = self.comm.allreduce(sums, op=MPI.SUM)
+        self.comm.Allreduce(MPI.IN_PLACE, shares, op=MPI.SUM)
+        self._shares = list(shares / shares.sum()) if shares.sum() > 0.0 else []
         return float(np.sqrt(total / max(count, 1.0))) / self.step_tolerance
 
     def error(self, stepper) -> float | None:
         """E of the attempted step (module docstring), or None while there are too few levels."""
         parts = self.parts(stepper)
         return None if parts is None else self.norm(parts, self.weights(parts))
+
+    def _report_shrinking(self, state, dt: float) -> None:
+        """A warning each time the accepted step falls below a tenth of the largest one accepted since the
+        last warning: a step that keeps shrinking is said, with the field whose error estimate drives it."""
+        if dt >= self._largest[0]:
+            self._largest = (dt, state.t)
+        elif dt < 0.1 * self._largest[0]:
+            names = ("velocity", "solid displacement")
+            driver = names[int(np.argmax(self._shares))] if self._shares else "velocity"
+            log.warning("t = %.6g: the time step has shrunk to %.3g, a tenth of the %.3g at t = %.6g (%s %.0f %% "
+                        "of the error estimate)", state.t, dt, *self._largest, driver,
+                        100 * max(self._shares, default=1.0))
+            self._largest = (dt, state.t)
 
     @staticmethod
     def accepts(error: float | None) -> bool:
@@ -161,6 +180,7 @@ class TimeControl:
                 factor = 1.0
             steps.next = min(max(dt * factor, self.dt_min), self.dt_max)
             steps.error, self._rejected_now = max(error, 1e-12), False
+            self._report_shrinking(state, dt)
             return True
         steps.rejected += 1
         self._rejected_now = True
