@@ -1,0 +1,95 @@
+"""The whole Turek–Hron FSI3 table of finished runs, and the cycle-by-cycle values behind it.
+
+    python campaigns/fsi3_table.py RUN_DIR [RUN_DIR ...]              # one markdown row per run
+    python campaigns/fsi3_table.py --cycles RUN_DIR [RUN_DIR ...]     # each cycle's mean and amplitude error
+
+Rows: the twelve quantities' errors against the benchmark authors' refined values (``ux_A``, ``uy_A``, ``drag``,
+``lift``: mean, amplitude, frequency; a mean smaller than its amplitude relative to the amplitude), the worst of
+them, the steps and the wall time, recomputed from each run's timeseries.csv and config.yaml with the current
+analysis (campaigns/reanalyse.py). ``--cycles``: for each quantity (and the surface-integral forces), the mean
+and amplitude errors of every cycle between two maxima from t = 6 on: a quantity at twice the flag's frequency
+alternates between two cycle shapes. Used by docs/fsi3_table.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "campaigns"))
+
+from reanalyse import reanalyse  # noqa: E402
+
+from cosserat_fsi.analysis import _cycle_maxima, _levels, _vertex  # noqa: E402
+from cosserat_fsi.io import read_timeseries  # noqa: E402
+from cosserat_fsi.references import reference_for  # noqa: E402
+
+QUANTITIES = ("ux_A", "uy_A", "drag", "lift")
+PARTS = ("mean", "amplitude", "frequency")
+
+
+def row(run: Path) -> str:
+    """``| run | steps | wall | twelve errors | worst |`` of one finished run."""
+    summary = reanalyse(run)
+    bench, time = summary["benchmark"], summary["time"]
+    errors = [bench[q][p]["error"] for q in QUANTITIES for p in PARTS]
+    steps = f"{time['steps']:,}" + (f" (+{time['rejected_steps']})" if "rejected_steps" in time else "")
+    return (f"| {run.name} | {steps} | {summary['wall_time']['total']:.0f} | "
+            + " | ".join(f"{100 * e:+.2f}" for e in errors) + f" | {100 * max(map(abs, errors)):.2f} |")
+
+
+def header() -> list[str]:
+    cells = [f"{q} {p[:4]}" for q in QUANTITIES for p in PARTS]
+    return ["| run | steps | wall (s) | " + " | ".join(cells) + " | worst (%) |", "|---" * (len(cells) + 4) + "|"]
+
+
+def cycles(run: Path, since: float = 6.0) -> list[str]:
+    """Each quantity's cycles from ``since`` on: (start time, mean error, amplitude error) in percent."""
+    series = read_timeseries(run / "timeseries.csv")
+    reference = reference_for("turek_hron_fsi3")
+    t = series["t"]
+    keep = t >= since - 1.0
+    lines = [f"{run.name}:"]
+    for key in (*QUANTITIES, "drag_surface", "lift_surface"):
+        if key not in series:
+            continue
+        ref = reference[key.replace("_surface", "")]
+        tt, y = t[keep], series[key][keep]
+        peaks = _cycle_maxima(y, *_levels(y[tt >= since]))
+        scale = ref["amplitude"] if abs(ref["mean"]) < ref["amplitude"] else abs(ref["mean"])
+        parts = []
+        for a, b in zip(peaks[:-1], peaks[1:]):
+            if tt[a] < since:
+                continue
+            top = max(_vertex(tt, y, a)[1], _vertex(tt, y, b)[1])
+            bottom = -_vertex(tt, -y, a + int(np.argmin(y[a:b + 1])))[1]
+            mean, amplitude = (top + bottom) / 2, (top - bottom) / 2
+            parts.append(f"[{tt[a]:.2f}: {100 * (mean - ref['mean']) / scale:+.1f} / "
+                         f"{100 * (amplitude / ref['amplitude'] - 1):+.1f}]")
+        lines.append(f"  {key:13s} " + " ".join(parts[-6:]))
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    parser.add_argument("--cycles", action="store_true", help="each cycle's mean / amplitude error (%%)")
+    parser.add_argument("--json", type=Path, help="also write the rows' summaries' benchmark blocks here")
+    args = parser.parse_args()
+    if args.cycles:
+        for run in args.runs:
+            print("\n".join(cycles(run)))
+        return
+    print("\n".join(header() + [row(run) for run in args.runs]))
+    if args.json:
+        args.json.write_text(json.dumps({run.name: reanalyse(run)["benchmark"] for run in args.runs}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
