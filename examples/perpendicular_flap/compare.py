@@ -37,9 +37,23 @@ def peaks(t: np.ndarray, u: np.ndarray) -> list[tuple[float, float]]:
     return out
 
 
+def swings(t: np.ndarray, u: np.ndarray) -> list[tuple[float, float]]:
+    """The largest local maximum of each swing: between two kept maxima the signal falls below the middle of
+    its range (a wiggle near a crest, as at δt = 0.005 near t = 2.25, is not a period)."""
+    middle = 0.5 * (np.nanmax(u) + np.nanmin(u))
+    kept: list[tuple[float, float]] = []
+    for tp, up in peaks(t, u):
+        if kept and not np.any(u[(t > kept[-1][0]) & (t < tp)] < middle):
+            if up > kept[-1][1]:
+                kept[-1] = (tp, up)
+            continue
+        kept.append((tp, up))
+    return kept
+
+
 def summary(t: np.ndarray, u: np.ndarray) -> dict[str, float]:
-    """First peak time and value, and the mean period between maxima."""
-    p = peaks(t, u) or [(np.nan, np.nan)]  # none yet (a short run): NaN
+    """First peak time and value, and the mean period between the swings' maxima."""
+    p = swings(t, u) or [(np.nan, np.nan)]  # none yet (a short run): NaN
     times = [q[0] for q in p]
     return {"t_peak": p[0][0], "peak": p[0][1], "period": float(np.mean(np.diff(times))) if len(p) > 1 else np.nan,
             "n_peaks": len(p)}
