@@ -332,7 +332,7 @@ def write_report(study: Study, todo: list[tuple[dict, Path]], out: Path, config:
     if figure:
         lines += [f"![pareto]({figure})", ""]
     if len(study.observables) > 1 and points:
-        lines += ["Each quantity on its own (all runs of the fronts above):", "",
+        lines += ["Each quantity on its own (every completed run that applies):", "",
                   *quantity_fronts(study.observables, [p[0] for p in points], every_error, labels), ""]
     path = out / f"study_{study.name}.md"
     atomic_write_text(path, "\n".join(lines) + "\n")
