@@ -14,7 +14,6 @@ alternates between two cycle shapes. Used by docs/fsi3_table.md.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -27,6 +26,7 @@ sys.path.insert(0, str(ROOT / "campaigns"))
 from reanalyse import reanalyse  # noqa: E402
 
 from cosserat_fsi.analysis import _cycle_maxima, _levels, _vertex  # noqa: E402
+from cosserat_fsi.app.verdict import periodic_error  # noqa: E402
 from cosserat_fsi.io import read_timeseries  # noqa: E402
 from cosserat_fsi.references import reference_for  # noqa: E402
 
@@ -62,7 +62,6 @@ def cycles(run: Path, since: float = 6.0) -> list[str]:
         ref = reference[key.replace("_surface", "")]
         tt, y = t[keep], series[key][keep]
         peaks = _cycle_maxima(y, *_levels(y[tt >= since]))
-        scale = ref["amplitude"] if abs(ref["mean"]) < ref["amplitude"] else abs(ref["mean"])
         parts = []
         for a, b in zip(peaks[:-1], peaks[1:]):
             if tt[a] < since:
@@ -70,8 +69,8 @@ def cycles(run: Path, since: float = 6.0) -> list[str]:
             top = max(_vertex(tt, y, a)[1], _vertex(tt, y, b)[1])
             bottom = -_vertex(tt, -y, a + int(np.argmin(y[a:b + 1])))[1]
             mean, amplitude = (top + bottom) / 2, (top - bottom) / 2
-            parts.append(f"[{tt[a]:.2f}: {100 * (mean - ref['mean']) / scale:+.1f} / "
-                         f"{100 * (amplitude / ref['amplitude'] - 1):+.1f}]")
+            parts.append(f"[{tt[a]:.2f}: {100 * periodic_error(mean, ref, 'mean')[0]:+.1f} / "
+                         f"{100 * periodic_error(amplitude, ref, 'amplitude')[0]:+.1f}]")
         lines.append(f"  {key:13s} " + " ".join(parts[-6:]))
     return lines
 
@@ -80,15 +79,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--cycles", action="store_true", help="each cycle's mean / amplitude error (%%)")
-    parser.add_argument("--json", type=Path, help="also write the rows' summaries' benchmark blocks here")
     args = parser.parse_args()
     if args.cycles:
         for run in args.runs:
             print("\n".join(cycles(run)))
         return
     print("\n".join(header() + [row(run) for run in args.runs]))
-    if args.json:
-        args.json.write_text(json.dumps({run.name: reanalyse(run)["benchmark"] for run in args.runs}, indent=1))
 
 
 if __name__ == "__main__":

@@ -18,12 +18,20 @@ from pathlib import Path
 
 import pytest
 
+def _world_size() -> int:
+    """Ranks of this pytest run, from the launcher's environment (OpenMPI, MPICH), without importing MPI."""
+    for key in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
+        if os.environ.get(key, "").isdigit():
+            return int(os.environ[key])
+    return 1
+
+
 # An MPI run a test launches (``mpirun -n 2`` from a serial pytest) shares the 2 cores with the other pytest
 # worker: MPI's busy polling would spin on a core the other process needs. Yielding while idle, measured on
 # tests/faults/test_mpi.py with 2 workers: 118 -> 81 s (Open MPI), 92 -> 80 s (MPICH). Not when this pytest is
 # itself a rank of the MPI tier (the ranks own both cores): there MPICH's heavy yield made tests/test_fsi.py +
 # test_restart.py 1.75x slower (29.6 -> 51.8 s; Open MPI's yield 28.7 -> 30.5 s). A value already set wins.
-if not any(os.environ.get(key, "").isdigit() for key in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE")):
+if _world_size() == 1:
     os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
     os.environ.setdefault("MPIR_CVAR_ENABLE_HEAVY_YIELD", "1")
 
@@ -222,15 +230,6 @@ def _peak_memory_gib() -> tuple[float, float]:
 
     return tuple(resource.getrusage(who).ru_maxrss / 2**20  # KiB on Linux
                  for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
-
-
-@pytest.hookimpl(trylast=True)
-def _world_size() -> int:
-    """Ranks of this pytest run, from the launcher's environment (OpenMPI, MPICH), without importing MPI."""
-    for key in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"):
-        if os.environ.get(key, "").isdigit():
-            return int(os.environ[key])
-    return 1
 
 
 def pytest_collection_modifyitems(items):
