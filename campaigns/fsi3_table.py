@@ -17,7 +17,6 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -25,7 +24,7 @@ sys.path.insert(0, str(ROOT / "campaigns"))
 
 from reanalyse import reanalyse  # noqa: E402
 
-from cosserat_fsi.analysis import _cycle_maxima, _levels, _vertex  # noqa: E402
+from cosserat_fsi.analysis import cycle_extrema, cycle_peaks  # noqa: E402
 from cosserat_fsi.app.verdict import periodic_error  # noqa: E402
 from cosserat_fsi.io import read_timeseries  # noqa: E402
 from cosserat_fsi.references import reference_for  # noqa: E402
@@ -61,13 +60,13 @@ def cycles(run: Path, since: float = 6.0) -> list[str]:
             continue
         ref = reference[key.replace("_surface", "")]
         tt, y = t[keep], series[key][keep]
-        peaks = _cycle_maxima(y, *_levels(y[tt >= since]))
+        peaks = cycle_peaks(y, y[tt >= since])
+        _, tops, bottoms = cycle_extrema(tt, y, peaks)
         parts = []
-        for a, b in zip(peaks[:-1], peaks[1:]):
+        for k, a in enumerate(peaks[:-1]):
             if tt[a] < since:
                 continue
-            top = max(_vertex(tt, y, a)[1], _vertex(tt, y, b)[1])
-            bottom = -_vertex(tt, -y, a + int(np.argmin(y[a:b + 1])))[1]
+            top, bottom = max(tops[k], tops[k + 1]), bottoms[k]
             mean, amplitude = (top + bottom) / 2, (top - bottom) / 2
             parts.append(f"[{tt[a]:.2f}: {100 * periodic_error(mean, ref, 'mean')[0]:+.1f} / "
                          f"{100 * periodic_error(amplitude, ref, 'amplitude')[0]:+.1f}]")

@@ -62,6 +62,20 @@ def _levels(y: np.ndarray) -> tuple[float, float]:
     return mid - half / 2, mid + half / 2
 
 
+def cycle_peaks(y: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """Index of the maximum of every complete cycle of ``y``, a cycle an excursion across the middle half
+    of the range of ``part`` (a part of ``y``, e.g. its periodic tail)."""
+    return _cycle_maxima(y, *_levels(part))
+
+
+def cycle_extrema(t: np.ndarray, y: np.ndarray, peaks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The maxima at ``peaks`` and the minimum between each two, parabola vertices through the samples:
+    (times of the maxima, their values, the minima), of lengths n, n and n − 1."""
+    tops = [_vertex(t, y, i) for i in peaks]
+    bottoms = [-_vertex(t, -y, a + int(np.argmin(y[a:b + 1])))[1] for a, b in zip(peaks[:-1], peaks[1:])]
+    return (np.array([tv for tv, _ in tops]), np.array([yv for _, yv in tops]), np.array(bottoms))
+
+
 def _fft_frequency(t: np.ndarray, y: np.ndarray) -> float | None:
     """Dominant frequency of a detrended, Hann-windowed, zero-padded FFT (Gaussian peak fit)."""
     n = len(t)
@@ -102,16 +116,14 @@ def periodic_analysis(t, y, n_periods: int = 2) -> dict:
         return result | dict(mean=float(tail.mean()), amplitude=0.0, method="constant")
     result["frequency_fft"] = _fft_frequency(t[half:], tail)
 
-    peaks = _cycle_maxima(y, *_levels(tail))
+    peaks = cycle_peaks(y, tail)
     if len(peaks) >= 3:  # refine the levels on the last two cycles
-        peaks = _cycle_maxima(y, *_levels(y[peaks[-3]:peaks[-1] + 1]))
+        peaks = cycle_peaks(y, y[peaks[-3]:peaks[-1] + 1])
     if len(peaks) >= n_periods + 1:
-        window = peaks[-n_periods - 1:]
-        tm = [_vertex(t, y, i)[0] for i in window]
-        ymax = max(_vertex(t, y, i)[1] for i in window)
-        ymin = min(-_vertex(t, -y, a + int(np.argmin(y[a:b + 1])))[1] for a, b in zip(window[:-1], window[1:]))
+        tm, tops, bottoms = cycle_extrema(t, y, peaks[-n_periods - 1:])
+        ymax, ymin = float(tops.max()), float(bottoms.min())
         return result | dict(mean=(ymax + ymin) / 2, amplitude=(ymax - ymin) / 2,
-                             frequency=n_periods / (tm[-1] - tm[0]), periods_used=n_periods,
+                             frequency=float(n_periods / (tm[-1] - tm[0])), periods_used=n_periods,
                              method="maxima")
 
     f = result["frequency_fft"]
