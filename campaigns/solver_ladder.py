@@ -24,7 +24,6 @@ import argparse
 import json
 import os
 import resource
-import shutil
 import subprocess
 import sys
 import time
@@ -79,12 +78,9 @@ def one(sections: dict, steps: int = 4) -> dict:
 
 
 def _launcher(ranks: int) -> list[str]:
-    if ranks == 1:
-        return []
-    here = Path(sys.executable).parent
-    if (here / "mpiexec").exists():  # the pip stack's MPICH
-        return [str(here / "mpiexec"), "-n", str(ranks)]
-    return [shutil.which("mpirun") or "mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(ranks)]
+    from cosserat_fsi.app.cases import mpi_launcher
+
+    return [] if ranks == 1 else mpi_launcher(ranks)
 
 
 def table(results: list[dict]) -> str:

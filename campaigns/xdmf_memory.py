@@ -38,11 +38,10 @@ output: {{progress: false, fields: false}}
 
 
 def launcher() -> list[str]:
-    from mpi4py import MPI
+    sys.path.insert(0, str(REPO))
+    from cosserat_fsi.app.cases import mpi_launcher
 
-    if "Open MPI" in MPI.Get_library_version():
-        return ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", "2"]
-    return [str(Path(sys.executable).parent / "mpiexec"), "-n", "2"]
+    return mpi_launcher(2)
 
 
 def load_only(scene_path: str, sets: list[str]) -> None:
