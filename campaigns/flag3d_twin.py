@@ -1,4 +1,4 @@
-"""The built-in 3D flag FSI scene and its user-file twin: the numbers of docs/validation.md, "3D FSI scene as a
+"""The built-in 3D flag FSI scene and its user-file twin: the numbers of docs/validation_3d.md, "3D FSI scene as a
 user's file".
 
 configs/turek_hron_3d_fsi.yaml (geometry turek_hron_3d, level 0: conditions and observables of the preset)

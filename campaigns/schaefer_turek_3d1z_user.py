@@ -1,5 +1,5 @@
 """Schäfer–Turek 3D-1Z from the user's .geo files (examples/schaefer_turek_3d1z) at a ladder of meshes: the
-numbers of docs/validation.md, "3D-1Z as a user's .geo". Run by hand, not a test:
+numbers of docs/validation_3d.md, "3D-1Z as a user's .geo". Run by hand, not a test:
 
     python campaigns/schaefer_turek_3d1z_user.py --out runs/st3d_user --geo duct_blocks.geo \
         --size "" --size "n_q=24"                     # each --size: the .geo's parameters ("": as shipped)
@@ -14,7 +14,7 @@ OUT/geo/NAME.geo (the parameters, then ``Include "GEO"``, a copy of the example'
 system of the launcher and every rank, from the kernel's accounting of the finished children). Then c_D, c_L
 and Δp (examples/schaefer_turek_3d1z/compare.py) against the reference, the cells, unknowns, Newton and FGMRES
 iterations and the peak memory per rank (summary.json). Every row is appended to OUT/results.json; ``--table``
-prints the markdown table of docs/validation.md from it. The wall time includes meshing (gmsh on rank 0) unless
+prints the markdown table of docs/validation_3d.md from it. The wall time includes meshing (gmsh on rank 0) unless
 the mesh is in the cache ($COSSERAT_FSI_MESH_CACHE; the column ``meshed`` says which); the load average at the
 start and end of each run is recorded (the machine may be shared).
 """

@@ -103,7 +103,7 @@ def test_spin_is_the_curl_tensor():
 @pytest.mark.slow
 def test_manufactured_3d_rates():
     """All micropolar terms active (λ₂ included), convection by the steady Newton solver, levels 0/1/2
-    (2, 4, 8 divisions per side). Measured (both stacks, docs/validation.md): ‖u − u_ex‖ 2.72e-2, 7.72e-3,
+    (2, 4, 8 divisions per side). Measured (both stacks, docs/validation_3d.md): ‖u − u_ex‖ 2.72e-2, 7.72e-3,
     1.03e-3 (rates 1.82, 2.91), ‖ω − ω_ex‖ 2.75e-2, 7.94e-3, 1.05e-3 (1.80, 2.92), ‖p − p_ex‖ 0.224, 8.13e-2,
     1.40e-2 (1.46, 2.53); level 0 (2 divisions) is pre-asymptotic. Asserted: rates > 2.7 (u, ω) and > 1.7
     (p) over the last pair, errors decreasing at every level."""
@@ -235,7 +235,7 @@ def test_schaefer_turek_3d1z_coarse():
     gmsh 4.8 (Debian; 38,873 dofs) gives c_D −1.31 %, c_L +16 %, Δp 0.16729; gmsh 4.15 (the wheel; 38,553
     dofs) c_D −0.82 %, c_L +457 %, Δp 0.16513. So c_D within 2 %; Δp within the benchmark's published interval
     [0.165, 0.175] (Schäfer & Turek 1996); the level-0 lift only bounded, 0 < c_L < 0.1 (it is ≈ 1e-3 of the
-    drag and set by the coarse mesh's asymmetry: level 1 +9.8 %, level 2 +0.93 %, docs/validation.md). ≈ 25 s.
+    drag and set by the coarse mesh's asymmetry: level 1 +9.8 %, level 2 +0.93 %, docs/validation_3d.md). ≈ 25 s.
 
     The force's three components: the columns drag, lift, side and their surface forms; drag and lift as
     recorded (to 1e-9 relative); the duct and the cylinder are symmetric in z about 0.205, so side ≈ 0:

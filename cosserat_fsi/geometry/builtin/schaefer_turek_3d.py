@@ -5,7 +5,7 @@ setup of Bayraktar, Mierka & Turek 2012 and John 2002, shared/reference/three_d_
 Facets: inlet x = 0 (1), outlet x = 2.5 (2), walls = the four other duct faces (3), cylinder (4).
 Unstructured tetrahedra (gmsh OCC box minus cylinder, Delaunay), size h = H_MIN on the cylinder growing
 linearly to H_MAX at distance DIST_MAX, both halved per level. Vertex counts (gmsh 4.8; 4.15 differs
-slightly): docs/validation.md, "Schäfer–Turek 3D-1Z".
+slightly): docs/validation_3d.md, "Schäfer–Turek 3D-1Z".
 """
 
 from types import ModuleType
