@@ -163,6 +163,11 @@ BAD = [
     ("structured_rigid_flag", None, ["geometry.name=turek_hron", "geometry.flag=rigid",
                                      "geometry.flag_mesh=structured"],
      "geometry.flag_mesh: structured needs geometry.flag solid"),
+    ("flag_cells_across_unstructured", None, ["geometry.name=turek_hron", "geometry.flag_cells_across=8"],
+     "geometry.flag_cells_across: only with geometry.flag_mesh structured"),
+    ("flag_cells_across_odd", (REPO / "configs/turek_hron_fsi3.yaml").read_text(),
+     ["geometry.flag_mesh=structured", "geometry.flag_cells_across=7"],
+     "geometry.flag_cells_across: must be even and >= 2 (got 7)"),
     ("clamp_on_another_geometry", None, ["geometry.clamp=arc"], "geometry.clamp: only for geometry flag"),
     ("unknown_law", CSM, ["solid.law=hooke"], "solid.law: must be one of mooney_rivlin_incompressible, "
      "saint_venant_kirchhoff, neo_hookean"),

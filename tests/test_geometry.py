@@ -119,12 +119,13 @@ def test_flag_clamped_on_the_arc(tmp_path, level):
     assert m["vertices"] == (70 * ny // 4 + 1) * (ny + 1)
 
 
-@pytest.mark.parametrize("level", [0, 1])
-def test_turek_hron_structured_flag(tmp_path, level):
-    """``flag_mesh: structured``: the flag's cells are transfinite, 2·2^level across and square along it
-    (2 × across × along triangles), its area, clamp arc and interface those of the unstructured flag, A a
-    vertex; the fluid around it unchanged in area."""
-    m = _measures(geometry.build_msh(_geo("turek_hron", level, {"flag_mesh": "structured"}), tmp_path))
+@pytest.mark.parametrize("level, across", [(0, None), (1, None), (0, 6)])
+def test_turek_hron_structured_flag(tmp_path, level, across):
+    """``flag_mesh: structured``: the flag's cells are transfinite, 2·2^level (or ``flag_cells_across``) across
+    and square along it (2 × across × along triangles), its area, clamp arc and interface those of the
+    unstructured flag, A a vertex; the fluid around it unchanged in area."""
+    params = {"flag_mesh": "structured", **({"flag_cells_across": across} if across else {})}
+    m = _measures(geometry.build_msh(_geo("turek_hron", level, params), tmp_path))
     assert m["solid"] == pytest.approx(FLAG_AREA, rel=1e-3 / 4**level)  # the arc's chords
     assert m["fluid"] + m["solid"] == pytest.approx(2.5 * 0.41 - math.pi * R**2, rel=1e-3)
     assert m["interior5"] == pytest.approx(INTERFACE, rel=1e-9)
@@ -132,9 +133,9 @@ def test_turek_hron_structured_flag(tmp_path, level):
     compat = pytest.importorskip("cosserat_fsi.compat")
     from mpi4py import MPI
 
-    mesh, cells, _ = compat.read_msh(geometry.build_msh(_geo("turek_hron", level, {"flag_mesh": "structured"}),
-                                                        tmp_path), MPI.COMM_WORLD)
-    across = 2 * 2**level
+    mesh, cells, _ = compat.read_msh(geometry.build_msh(_geo("turek_hron", level, params), tmp_path),
+                                     MPI.COMM_WORLD)
+    across = across or 2 * 2**level
     along = round((0.6 - X0) / (0.02 / across))
     assert mesh.comm.allreduce(int(np.sum(cells.values == 2)), op=MPI.SUM) == 2 * across * along
 

@@ -6,8 +6,9 @@ to the cylinder is tagged ``cylinder`` (4) like the rest of the circle. ``flag: 
 in the fluid, its three free edges are exterior facets tagged 5. A = (0.6, 0.2) and B = (0.15, 0.2) are
 mesh vertices. Sizes: Threshold on the distance to cylinder and flag, h = 0.014 on them growing to
 0.07 at distance 0.3, both halved per level ("seed" scales level 0 by ``SEED_SCALE``). ``flag_mesh:
-structured``: the flag's triangles transfinite, 2, 4, 8, 16 across on levels 0-3 and square along it (the
-fluid's sizes unchanged); its tip deflection converges more regularly under refinement (docs/validation.md).
+structured``: the flag's triangles transfinite, 2, 4, 8, 16 across on levels 0-3 (or ``flag_cells_across``) and
+square along it (the fluid's sizes unchanged); its tip deflection converges more regularly under refinement
+(docs/validation.md).
 
 Vertex counts (gmsh 4.8; 4.15 differs by < 0.3 %), L0 / L1 / L2 / L3 / seed:
 solid flag 784 / 2,843 / 10,916 / 42,416 / 2,179 (seed paper: 2,199); rigid 758 / 2,723 / 10,378 / 40,211 / 2,087.
@@ -48,6 +49,10 @@ class TurekHron(GeometryBase):
     flag_mesh: Literal["unstructured", "structured"] = "unstructured"
     """The flag's triangles (flag solid): ``unstructured`` or ``structured`` (transfinite, 2·2^level cells
     across); the tip deflection converges more regularly on the structured one."""
+    flag_cells_across: int | None = None
+    """With ``flag_mesh: structured``: the cells across the flag (even, ≥ 2; default 2·2^level), square cells
+    along it; the fluid's sizes stay the level's, graded from the flag's edges. A finer flag at a level's
+    fluid cost (FSI3's ux(A): docs/fsi3_table.md)."""
 
     @property
     def solid_cells(self) -> bool:
@@ -57,12 +62,19 @@ class TurekHron(GeometryBase):
     def _flag_mesh(self):
         if self.flag_mesh == "structured" and self.flag != "solid":
             raise ValueError("geometry.flag_mesh: structured needs geometry.flag solid")
+        if self.flag_cells_across is not None:
+            if self.flag_mesh != "structured":
+                raise ValueError("geometry.flag_cells_across: only with geometry.flag_mesh structured")
+            if self.flag_cells_across < 2 or self.flag_cells_across % 2:
+                raise ValueError(f"geometry.flag_cells_across: must be even and >= 2 (got {self.flag_cells_across})")
         return self
 
     def msh_params(self) -> dict[str, Any]:
         params = {"flag": self.flag}
         if self.flag_mesh == "structured":  # (unstructured meshes keep their cache key)
             params["flag_mesh"] = self.flag_mesh
+        if self.flag_cells_across is not None:
+            params["flag_cells_across"] = self.flag_cells_across
         return params
 
 
@@ -108,16 +120,16 @@ def build(gmsh: ModuleType, scale: float, params: dict[str, Any]) -> None:
     for name, tags in curves.items():
         _gmsh.add_physical(gmsh, 1, tags, name)
     if params.get("flag_mesh") == "structured":
-        _structured_flag(gmsh, solid, curves, scale)
+        _structured_flag(gmsh, solid, curves, scale, params.get("flag_cells_across"))
     near = curves["cylinder"] + curves["interface"]
     _gmsh.threshold_field(gmsh, near, H_MIN * scale, H_MAX * scale, 0.0, DIST_MAX)
     gmsh.model.mesh.generate(2)
 
 
-def _structured_flag(gmsh, solid: list[int], curves: dict, scale: float) -> None:
-    """Transfinite triangles in the flag: 2/``scale`` cells across (2, 4, 8, ... on levels 0, 1, 2), square
-    cells along it; its corners the arc's ends and the tip's two corners (A splits the tip)."""
-    across = 2 * max(1, round(1.0 / scale))
+def _structured_flag(gmsh, solid: list[int], curves: dict, scale: float, across: int | None = None) -> None:
+    """Transfinite triangles in the flag: ``across`` cells across (default 2/``scale``: 2, 4, 8, ... on levels
+    0, 1, 2), square cells along it; its corners the arc's ends and the tip's two corners (A splits the tip)."""
+    across = across or 2 * max(1, round(1.0 / scale))
     thickness = FLAG_Y[1] - FLAG_Y[0]
     along = round((FLAG_END - FLAG_START) / (thickness / across))
     (surface,) = solid
