@@ -1,8 +1,9 @@
-"""The validation report keeps measured rows whose run folders are gone (fresh checkout)."""
+"""The validation report keeps measured rows whose run folders are gone (fresh checkout) and judges each
+quantity as the run's verdict does."""
 
 from __future__ import annotations
 
-from validate import CFD3, Case, cheapest, previous_rows, table
+from validate import CFD3, Case, cheapest, judged_error, previous_rows, table
 
 ROW = ("| cfd3-L1-c2-dt0.001 | L1 (2,723) | BDF2 | 0.001 | {key} | 1 | 1 | +0.10% | 1.0% | {ok} | 1186 | 0.148 |")
 
@@ -56,3 +57,18 @@ def test_an_example_case_is_measured_from_its_run_folder(tmp_path):
     assert cheapest([case], tmp_path / "runs") == ["- ex: `ex-L0` (4 s)"]
     case.tolerances["u"] = 1e-4
     assert "| no |" in table([case], tmp_path / "runs")[2]
+
+
+def test_a_mean_about_zero_is_judged_relative_to_the_amplitude_in_any_summary():
+    """FSI3's lift 2.50 ± 153.91: a mean of 1.70 is 0.52 % of the amplitude off (the run's verdict), not 32 % of
+    itself — also in a summary written before its entries carried the error; a drag mean stays relative to
+    itself, a non-periodic key to its reference."""
+    lift = {"mean": {"value": 1.70, "reference": 2.5}, "amplitude": {"value": 153.2, "reference": 153.91},
+            "frequency": {"value": 5.457, "reference": 5.46}}
+    drag = {"mean": {"value": 463.7, "reference": 460.5}, "amplitude": {"value": 28.7, "reference": 27.74}}
+    summary = {"benchmark": {"lift": lift, "drag": drag}}
+    err, of = judged_error(summary, "lift.mean", lift["mean"])
+    assert err == (1.70 - 2.5) / 153.91 and of == " of amplitude"
+    assert judged_error(summary, "lift.amplitude", lift["amplitude"]) == ((153.2 - 153.91) / 153.91, "")
+    assert judged_error(summary, "drag.mean", drag["mean"]) == ((463.7 - 460.5) / 460.5, "")
+    assert judged_error({}, "c_D", {"value": 5.58, "reference": 5.57954}) == ((5.58 - 5.57954) / 5.57954, "")
