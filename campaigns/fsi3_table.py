@@ -8,7 +8,8 @@ Rows: the twelve quantities' errors against the benchmark authors' refined value
 them, the steps and the wall time, recomputed from each run's timeseries.csv and config.yaml with the current
 analysis (campaigns/reanalyse.py). ``--cycles``: for each quantity (and the surface-integral forces), the mean
 and amplitude errors of every cycle between two maxima from t = 6 on: a quantity at twice the flag's frequency
-alternates between two cycle shapes. Used by docs/fsi3_table.md.
+alternates between two cycle shapes (against the run's own benchmark: CFD3's drag and lift too). Used by
+docs/fsi3_table.md.
 """
 
 from __future__ import annotations
@@ -49,14 +50,18 @@ def header() -> list[str]:
 
 
 def cycles(run: Path, since: float = 6.0) -> list[str]:
-    """Each quantity's cycles from ``since`` on: (start time, mean error, amplitude error) in percent."""
+    """Each quantity's cycles from ``since`` on: (start time, mean error, amplitude error) in percent, against
+    the run's own benchmark (config.yaml's ``benchmark``; FSI3 when it names none): CFD3's drag too."""
+    import yaml
+
     series = read_timeseries(run / "timeseries.csv")
-    reference = reference_for("turek_hron_fsi3")
+    benchmark = (yaml.safe_load((run / "config.yaml").read_text()) or {}).get("benchmark") or "turek_hron_fsi3"
+    reference = reference_for(benchmark)
     t = series["t"]
     keep = t >= since - 1.0
     lines = [f"{run.name}:"]
     for key in (*QUANTITIES, "drag_surface", "lift_surface"):
-        if key not in series:
+        if key not in series or key.replace("_surface", "") not in reference:
             continue
         ref = reference[key.replace("_surface", "")]
         tt, y = t[keep], series[key][keep]
