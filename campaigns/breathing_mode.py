@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import sys
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from cosserat_fsi.io import read_timeseries  # noqa: E402
+from cosserat_fsi.io.fields_check import xdmf_times  # noqa: E402
 
 B = (0.15, 0.2)
 
@@ -44,7 +44,7 @@ def main() -> None:
     parser.add_argument("--from", dest="t0", type=float, default=0.0)
     parser.add_argument("--to", dest="t1", type=float, default=math.inf)
     args = parser.parse_args()
-    times = [float(t) for t in re.findall(r'<Time Value="([^"]+)"', (args.run / "fields.xdmf").read_text())]
+    times = xdmf_times(args.run / "fields.xdmf")
     series = read_timeseries(args.run / "timeseries.csv")
     with h5py.File(args.run / "fields.h5", "r") as f:
         cells = f["mesh/topology"][:]

@@ -27,6 +27,7 @@ from reanalyse import reanalyse  # noqa: E402
 
 from cosserat_fsi.analysis import cycle_extrema, cycle_peaks  # noqa: E402
 from cosserat_fsi.app.verdict import periodic_error  # noqa: E402
+from cosserat_fsi.config import load_scene  # noqa: E402
 from cosserat_fsi.io import read_timeseries  # noqa: E402
 from cosserat_fsi.references import reference_for  # noqa: E402
 
@@ -52,10 +53,8 @@ def header() -> list[str]:
 def cycles(run: Path, since: float = 6.0) -> list[str]:
     """Each quantity's cycles from ``since`` on: (start time, mean error, amplitude error) in percent, against
     the run's own benchmark (config.yaml's ``benchmark``; FSI3 when it names none): CFD3's drag too."""
-    import yaml
-
     series = read_timeseries(run / "timeseries.csv")
-    benchmark = (yaml.safe_load((run / "config.yaml").read_text()) or {}).get("benchmark") or "turek_hron_fsi3"
+    benchmark = load_scene(run / "config.yaml").benchmark or "turek_hron_fsi3"
     reference = reference_for(benchmark)
     t = series["t"]
     keep = t >= since - 1.0
