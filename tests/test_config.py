@@ -167,7 +167,10 @@ BAD = [
      "geometry.flag_cells_across: only with geometry.flag_mesh structured"),
     ("flag_cells_across_odd", (REPO / "configs/turek_hron_fsi3.yaml").read_text(),
      ["geometry.flag_mesh=structured", "geometry.flag_cells_across=7"],
-     "geometry.flag_cells_across: must be even and >= 2 (got 7)"),
+     "geometry.flag_cells_across: must be even, 2 to 128 (level 6's flag; got 7)"),
+    ("flag_cells_across_too_many", (REPO / "configs/turek_hron_fsi3.yaml").read_text(),
+     ["geometry.flag_mesh=structured", "geometry.flag_cells_across=130"],
+     "geometry.flag_cells_across: must be even, 2 to 128 (level 6's flag; got 130)"),
     ("clamp_on_another_geometry", None, ["geometry.clamp=arc"], "geometry.clamp: only for geometry flag"),
     ("unknown_law", CSM, ["solid.law=hooke"], "solid.law: must be one of mooney_rivlin_incompressible, "
      "saint_venant_kirchhoff, neo_hookean"),

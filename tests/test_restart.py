@@ -167,6 +167,7 @@ def _snapshot(folder: Path) -> dict:
     ("other_out", "error: --out: a restart continues in its own folder"),
     ("missing_rank_file", "error: --restart: cannot read"),
     ("timeseries_gone", "error: --restart: "),
+    ("fields_truncated", "error: --restart: "),
 ])
 def test_bad_restart_exits_2_and_touches_nothing(run_cli, finished_run, tmp_path, case, expected):
     tmp, run = finished_run
@@ -187,6 +188,9 @@ def test_bad_restart_exits_2_and_touches_nothing(run_cli, finished_run, tmp_path
         (folder / "checkpoint" / "rank0000.npz").unlink()
     elif case == "timeseries_gone":
         (folder / "timeseries.csv").unlink()
+    elif case == "fields_truncated":
+        xdmf = folder / "fields.xdmf"
+        xdmf.write_text(xdmf.read_text()[: xdmf.stat().st_size // 2])
     before = _snapshot(folder) if folder.is_dir() else None
     result = run_cli("run", config, "--restart", folder, "--no-progress", *extra)
     assert result.returncode == 2, result.stderr

@@ -19,8 +19,9 @@ import numpy as np
 
 from cosserat_fsi import compat  # before dolfinx
 from cosserat_fsi.errors import InputError, OutputError
+from cosserat_fsi.io.fields_check import xdmf_times
 from cosserat_fsi.io.runfolder import atomic_write_text
-from cosserat_fsi.files import check_free_space, read_regular
+from cosserat_fsi.files import check_free_space
 from cosserat_fsi.parallel import failpoint, on_root, share
 import dolfinx.fem
 
@@ -118,11 +119,8 @@ class MovingMeshXDMF:
 
     def _reopen(self, topology: np.ndarray, keep: int):
         """Rank 0: open the existing pair, drop the steps after the first ``keep``, and continue."""
-        import re
-
         try:
-            text = read_regular(self.path, "fields file").decode("utf-8", "replace")  # a FIFO: refused, not waited on
-            times = [float(t) for t in re.findall(r'<Time Value="([^"]+)"', text)]
+            times = xdmf_times(Path(self.path))  # a FIFO: refused, not waited on; a damaged file: InputError
             self.h5 = h5py.File(self.h5path, "a")
             stored = sorted(f"mesh/{n}" for n in self.h5["mesh"] if n.startswith("topology"))
             same = [n for n in stored if np.array_equal(self.h5[n][:], topology)]

@@ -30,6 +30,7 @@ CENTRE, RADIUS = (0.2, 0.2), 0.05
 FLAG_END, FLAG_Y = 0.6, (0.19, 0.21)
 FLAG_START = CENTRE[0] + math.sqrt(RADIUS**2 - (FLAG_Y[1] - CENTRE[1]) ** 2)  # 0.24899
 SEED_SCALE = 0.575
+MAX_FLAG_CELLS_ACROSS = 128  # level 6's structured flag (the levels stop at 6)
 H_MIN, H_MAX, DIST_MAX = 0.014, 0.07, 0.3
 
 
@@ -50,9 +51,9 @@ class TurekHron(GeometryBase):
     """The flag's triangles (flag solid): ``unstructured`` or ``structured`` (transfinite, 2·2^level cells
     across); the tip deflection converges more regularly on the structured one."""
     flag_cells_across: int | None = None
-    """With ``flag_mesh: structured``: the cells across the flag (even, ≥ 2; default 2·2^level), square cells
-    along it; the fluid's sizes stay the level's, graded from the flag's edges. A finer flag at a level's
-    fluid cost (FSI3's ux(A): docs/fsi3_table.md)."""
+    """With ``flag_mesh: structured``: the cells across the flag (even, 2 to 128 = level 6's; default
+    2·2^level), square cells along it; the fluid's sizes stay the level's, graded from the flag's edges. A
+    finer flag at a level's fluid cost (FSI3's ux(A): docs/fsi3_table.md)."""
 
     @property
     def solid_cells(self) -> bool:
@@ -65,8 +66,9 @@ class TurekHron(GeometryBase):
         if self.flag_cells_across is not None:
             if self.flag_mesh != "structured":
                 raise ValueError("geometry.flag_cells_across: only with geometry.flag_mesh structured")
-            if self.flag_cells_across < 2 or self.flag_cells_across % 2:
-                raise ValueError(f"geometry.flag_cells_across: must be even and >= 2 (got {self.flag_cells_across})")
+            if not 2 <= self.flag_cells_across <= MAX_FLAG_CELLS_ACROSS or self.flag_cells_across % 2:
+                raise ValueError(f"geometry.flag_cells_across: must be even, 2 to {MAX_FLAG_CELLS_ACROSS} "
+                                 f"(level 6's flag; got {self.flag_cells_across})")
         return self
 
     def msh_params(self) -> dict[str, Any]:
