@@ -2,14 +2,16 @@
 
     python campaigns/fsi3_table.py RUN_DIR [RUN_DIR ...]              # one markdown row per run
     python campaigns/fsi3_table.py --cycles RUN_DIR [RUN_DIR ...]     # each cycle's mean and amplitude error
+    python campaigns/fsi3_table.py --at 10,14 RUN_DIR [RUN_DIR ...]    # the rows as if each run ended there
 
 Rows: the twelve quantities' errors against the benchmark authors' refined values (``ux_A``, ``uy_A``, ``drag``,
 ``lift``: mean, amplitude, frequency; a mean smaller than its amplitude relative to the amplitude), the worst of
 them, the steps and the wall time, recomputed from each run's timeseries.csv and config.yaml with the current
-analysis (campaigns/reanalyse.py). ``--cycles``: for each quantity (and the surface-integral forces), the mean
-and amplitude errors of every cycle between two maxima from t = 6 on: a quantity at twice the flag's frequency
-alternates between two cycle shapes (against the run's own benchmark: CFD3's drag and lift too). Used by
-docs/fsi3_table.md.
+analysis (campaigns/reanalyse.py); a CFD3 run's rows have its six (drag, lift). ``--at``: one row per run and
+time, from the record up to that time (has the flow settled?). ``--cycles``: for each quantity (and the
+surface-integral forces), the mean and amplitude errors of every cycle between two maxima from t = 6 on: a
+quantity at twice the flag's frequency alternates between two cycle shapes (against the run's own benchmark:
+CFD3's drag and lift too). Used by docs/fsi3_table.md.
 """
 
 from __future__ import annotations
@@ -35,18 +37,26 @@ QUANTITIES = ("ux_A", "uy_A", "drag", "lift")
 PARTS = ("mean", "amplitude", "frequency")
 
 
-def row(run: Path) -> str:
-    """``| run | steps | wall | twelve errors | worst |`` of one finished run."""
-    summary = reanalyse(run)
+def quantities(run: Path) -> list[str]:
+    """The periodic quantities of the run's benchmark (FSI3's four, CFD3's drag and lift)."""
+    reference = reference_for(load_scene(run / "config.yaml").benchmark or "turek_hron_fsi3")
+    return [q for q in QUANTITIES if q in reference]
+
+
+def row(run: Path, until: float | None = None) -> str:
+    """``| run | steps | wall | the errors | worst |`` of one finished run (``until``: up to that time)."""
+    summary = reanalyse(run, until)
     bench, time = summary["benchmark"], summary["time"]
-    errors = [bench[q][p]["error"] for q in QUANTITIES for p in PARTS]
+    errors = [bench[q][p]["error"] for q in quantities(run) for p in PARTS]
     steps = f"{time['steps']:,}" + (f" (+{time['rejected_steps']})" if "rejected_steps" in time else "")
-    return (f"| {run.name} | {steps} | {summary['wall_time']['total']:.0f} | "
+    name = run.name if until is None else f"{run.name}, t ≤ {until:g}"
+    wall = "–" if until is not None else f"{summary['wall_time']['total']:.0f}"
+    return (f"| {name} | {steps} | {wall} | "
             + " | ".join(f"{100 * e:+.2f}" for e in errors) + f" | {100 * max(map(abs, errors)):.2f} |")
 
 
-def header() -> list[str]:
-    cells = [f"{q} {p[:4]}" for q in QUANTITIES for p in PARTS]
+def header(run: Path) -> list[str]:
+    cells = [f"{q} {p[:4]}" for q in quantities(run) for p in PARTS]
     return ["| run | steps | wall (s) | " + " | ".join(cells) + " | worst (%) |", "|---" * (len(cells) + 4) + "|"]
 
 
@@ -82,12 +92,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--cycles", action="store_true", help="each cycle's mean / amplitude error (%%)")
+    parser.add_argument("--at", type=lambda text: [float(t) for t in text.split(",")],
+                        help="rows as if each run had ended at these times (comma-separated)")
     args = parser.parse_args()
     if args.cycles:
         for run in args.runs:
             print("\n".join(cycles(run)))
         return
-    print("\n".join(header() + [row(run) for run in args.runs]))
+    rows = ([row(run, t) for run in args.runs for t in args.at] if args.at else [row(run) for run in args.runs])
+    print("\n".join(header(args.runs[0]) + rows))
 
 
 if __name__ == "__main__":

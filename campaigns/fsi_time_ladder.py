@@ -40,7 +40,8 @@ MR = {**INCOMPRESSIBLE, **FSI3_VOLUME_CORRECTION, "time.tolerance": None}  # the
 FSI3_MR = ("configs/turek_hron_fsi3.yaml", MR)
 FSI3_SEED = ("configs/turek_hron_fsi3.yaml", {**MR, "geometry.level": "seed", "time.scheme": "characteristics2"})
 FSI3_L1 = ("configs/turek_hron_fsi3.yaml", {**MR, "time.scheme": "characteristics2"})
-CFD3_L1 = ("configs/turek_hron_cfd3.yaml", {"time.tolerance": "null"})  # the ladders' fixed steps
+CFD3_L1 = ("configs/turek_hron_cfd3.yaml",  # the ladders' fixed steps, level 1, no tilt of the inflow
+           {"time.tolerance": "null", "geometry.level": 1, "inflow.asymmetry": 0.0})
 DTS = (0.01, 0.005, 0.0025, 0.00125)
 CFD3_DTS = (0.005, 0.0025, 0.002, 0.001)
 ALE = {"time.scheme": "ale_bdf2", "time.corrector_passes": "null"}  # null: the config's passes removed (0)

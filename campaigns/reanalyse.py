@@ -23,11 +23,18 @@ from cosserat_fsi.config import load_scene  # noqa: E402
 from cosserat_fsi.io import read_timeseries  # noqa: E402
 
 
-def reanalyse(run: Path) -> dict:
-    """The run's summary with ``signals``, ``periodic`` and ``benchmark`` recomputed."""
+def reanalyse(run: Path, until: float | None = None) -> dict:
+    """The run's summary with ``signals``, ``periodic`` and ``benchmark`` recomputed (``until``: from the
+    record up to that time, as if the run had ended there)."""
     summary = json.loads((run / "summary.json").read_text())
     scene = load_scene(run / "config.yaml")
-    summary["signals"], summary["periodic"] = classify_signals(read_timeseries(run / "timeseries.csv"))
+    series = read_timeseries(run / "timeseries.csv")
+    if until is not None:
+        keep = series["t"] <= until + 1e-9
+        series = {key: values[keep] for key, values in series.items()}
+        summary["time"] = {k: v for k, v in summary["time"].items() if k != "rejected_steps"}  # (of the whole run)
+        summary["time"].update(steps=int(keep.sum()), t_final=float(series["t"][-1]))
+    summary["signals"], summary["periodic"] = classify_signals(series)
     if scene.benchmark:
         summary["benchmark"] = compare_with_reference(scene, summary)
     return summary
