@@ -17,6 +17,7 @@ from mpi4py import MPI
 
 from cosserat_fsi.config import validate_scene
 from cosserat_fsi.io import read_timeseries
+from cosserat_fsi.io.fields_check import xdmf_times
 from cosserat_fsi.app.runner import run_scene
 
 ST = {"geometry": {"name": "schaefer_turek", "level": 0}, "fluid": {"rho": 1.0, "mu": 0.001},
@@ -249,3 +250,6 @@ def test_a_finished_run_is_extended_from_its_last_step(run_cli, tmp_path):
     assert list(a) == list(b) and len(a["t"]) == len(b["t"]) == 5
     for key in a:
         assert np.abs(a[key] - b[key]).max() <= 1e-12 * max(np.abs(a[key]).max(), 1.0), key
+    # the continued fields.xdmf lists the same times as plain numbers (what ParaView's reader parses)
+    assert (short / "fields.xdmf").read_text().count("<Time ") == (full / "fields.xdmf").read_text().count("<Time ")
+    np.testing.assert_array_equal(xdmf_times(short / "fields.xdmf"), xdmf_times(full / "fields.xdmf"))

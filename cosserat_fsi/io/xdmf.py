@@ -120,7 +120,7 @@ class MovingMeshXDMF:
     def _reopen(self, topology: np.ndarray, keep: int):
         """Rank 0: open the existing pair, drop the steps after the first ``keep``, and continue."""
         try:
-            times = xdmf_times(Path(self.path))  # a FIFO: refused, not waited on; a damaged file: InputError
+            times = [float(t) for t in xdmf_times(Path(self.path))]  # a FIFO: refused; damaged: InputError
             self.h5 = h5py.File(self.h5path, "a")
             stored = sorted(f"mesh/{n}" for n in self.h5["mesh"] if n.startswith("topology"))
             same = [n for n in stored if np.array_equal(self.h5[n][:], topology)]
@@ -218,7 +218,7 @@ class MovingMeshXDMF:
             topo = self.h5[shapes.get("topology", "mesh/topology")]
             cell = "Triangle" if topo.shape[1] == 3 else "Tetrahedron"
             lines += [f'<Grid Name="step_{step:06d}" GridType="Uniform">',
-                      f'<Time Value="{t!r}"/>',
+                      f'<Time Value="{float(t)!r}"/>',
                       f'<Topology TopologyType="{cell}" NumberOfElements="{topo.shape[0]}">',
                       _data_item(h5name, "/" + topo.name.lstrip("/"), topo.shape, topo.dtype), "</Topology>",
                       f'<Geometry GeometryType="{"XY" if gshape[1] == 2 else "XYZ"}">',
