@@ -156,6 +156,23 @@ def test_the_last_step_lands_on_t_end(t_end):
     assert max(stepper.accepted) <= 0.01  # dt_max bounds the controller, not the first steps (time.dt)
 
 
+@pytest.mark.parametrize("t_stop", [0.3, 0.5, 0.62, 0.77])
+def test_a_run_extended_past_its_end_steps_on_as_the_uninterrupted_run(t_stop):
+    """Run to ``t_stop`` (its last steps cut to land there), then on to t = 1 (a restart with a later t_end):
+    the first step after ``t_stop`` is the uninterrupted run's (the cut steps are judged as the step they were
+    cut from), not one grown from the cut step (which the keep band [0.9, 1.2) would hold there)."""
+    whole = _run(_control(t_end=1.0))
+    control = _control(t_end=t_stop)
+    stepper = _run(control)
+    cut, taken = stepper.accepted[-1], len(stepper.accepted)
+    control.t_end = 1.0
+    while not control.finished(stepper.state):
+        stepper.advance()
+    at = int(np.searchsorted(np.cumsum(whole.accepted), t_stop))
+    assert cut < 0.99 * whole.accepted[at]  # the step that landed on t_stop was cut
+    assert stepper.accepted[taken] == pytest.approx(whole.accepted[at], rel=1e-12)
+
+
 def test_judge_rules():
     """The factors one by one: a tiny error grows the step 2x, not after a rejection; a factor in [1, 1.2) keeps
     the step (a fixed mesh's matrix is not refactorised); E > 1 shrinks by max(0.2, 0.9 E^(-1/3)); a non-finite

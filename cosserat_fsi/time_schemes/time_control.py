@@ -21,7 +21,10 @@ a failure), not below ``dt_min``; a step rejected at
 ``dt_min`` stops the run (DivergenceError: exit 3). The first p steps take ``time.dt``: the predictor needs
 p + 1 earlier levels, and so do the p + 1 steps after a remesh (State.transfer_to: the carried levels are
 interpolations, and the solution's jump onto the new mesh is not an error a smaller step reduces). The last
-step ends at ``t_end`` (the last two share what is left when one step would not reach it). Generalised-α is
+step ends at ``t_end`` (the last two share what is left when one step would not reach it); a step so cut
+is judged as the step the controller wanted (its estimate scaled by that step's (δt_wanted/δt)^k, the
+estimate being O(δt^k)), so the proposal after it, which a checkpoint keeps, is the one the run would have
+gone on with: a restart that extends a finished run does not inherit its cut last step. Generalised-α is
 estimated as BDF2 (the same predictor and constant; its own local error constant depends on ρ∞), its rates
 moved to each new step's lag (generalized_alpha.py ``_shift_rates``).
 """
@@ -67,9 +70,18 @@ class TimeControl:
                 f"dt_min {self.dt_min:g}, dt_max {self.dt_max:g}")
 
     # ---------------------------------------------------------------------------------- steps
+    def wanted(self, state) -> float:
+        """The step the controller proposes, before it is cut to end at t_end."""
+        return min(state.steps.next or self.dt0, self.dt_max)
+
+    def cut_to_end(self, state, dt: float) -> bool:
+        """Is ``dt`` the controller's step cut short by :meth:`proposal` to land on t_end?"""
+        wanted = self.wanted(state)
+        return dt < wanted * (1.0 - 1e-9) and wanted > 0.5 * (self.t_end - state.t) * (1.0 - 1e-9)
+
     def proposal(self, state) -> float:
         """The size of the coming step: the controller's, within [dt_min, dt_max], ending at t_end."""
-        dt = min(state.steps.next or self.dt0, self.dt_max)
+        dt = self.wanted(state)
         remaining = self.t_end - state.t
         if dt >= remaining * (1.0 - 1e-9):
             return remaining
@@ -169,6 +181,8 @@ class TimeControl:
             steps.next, self._rejected_now = dt, False
             return True
         if failure is None and self.accepts(error):
+            if self.cut_to_end(state, dt):  # judged as the step it was cut from (module docstring)
+                dt, error = self.wanted(state), error * (self.wanted(state) / dt) ** k
             if error == 0.0:
                 factor = GROWTH
             elif steps.error > 0.0:
