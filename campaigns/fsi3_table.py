@@ -37,17 +37,17 @@ QUANTITIES = ("ux_A", "uy_A", "drag", "lift")
 PARTS = ("mean", "amplitude", "frequency")
 
 
-def quantities(run: Path) -> list[str]:
-    """The periodic quantities of the run's benchmark (FSI3's four, CFD3's drag and lift)."""
-    reference = reference_for(load_scene(run / "config.yaml").benchmark or "turek_hron_fsi3")
-    return [q for q in QUANTITIES if q in reference]
+def quantities(summary: dict) -> list[str]:
+    """The periodic quantities the (reanalysed) summary judges: FSI3's four, CFD3's drag and lift."""
+    return [q for q in QUANTITIES if q in summary["benchmark"]]
 
 
-def row(run: Path, until: float | None = None) -> str:
-    """``| run | steps | wall | the errors | worst |`` of one finished run (``until``: up to that time)."""
-    summary = reanalyse(run, until)
+def row(run: Path, until: float | None = None, summary: dict | None = None) -> str:
+    """``| run | steps | wall | the errors | worst |`` of one finished run (``until``: up to that time;
+    ``summary``: its reanalysis, when already made)."""
+    summary = reanalyse(run, until) if summary is None else summary
     bench, time = summary["benchmark"], summary["time"]
-    errors = [bench[q][p]["error"] for q in quantities(run) for p in PARTS]
+    errors = [bench[q][p]["error"] for q in quantities(summary) for p in PARTS]
     steps = f"{time['steps']:,}" + (f" (+{time['rejected_steps']})" if "rejected_steps" in time else "")
     name = run.name if until is None else f"{run.name}, t ≤ {until:g}"
     wall = "–" if until is not None else f"{summary['wall_time']['total']:.0f}"
@@ -55,8 +55,8 @@ def row(run: Path, until: float | None = None) -> str:
             + " | ".join(f"{100 * e:+.2f}" for e in errors) + f" | {100 * max(map(abs, errors)):.2f} |")
 
 
-def header(run: Path) -> list[str]:
-    cells = [f"{q} {p[:4]}" for q in quantities(run) for p in PARTS]
+def header(summary: dict) -> list[str]:
+    cells = [f"{q} {p[:4]}" for q in quantities(summary) for p in PARTS]
     return ["| run | steps | wall (s) | " + " | ".join(cells) + " | worst (%) |", "|---" * (len(cells) + 4) + "|"]
 
 
@@ -99,8 +99,8 @@ def main() -> None:
         for run in args.runs:
             print("\n".join(cycles(run)))
         return
-    rows = ([row(run, t) for run in args.runs for t in args.at] if args.at else [row(run) for run in args.runs])
-    print("\n".join(header(args.runs[0]) + rows))
+    cases = [(run, t, reanalyse(run, t)) for run in args.runs for t in (args.at or [None])]
+    print("\n".join(header(cases[0][2]) + [row(run, t, summary) for run, t, summary in cases]))
 
 
 if __name__ == "__main__":
