@@ -39,3 +39,30 @@ def test_a_run_judged_as_if_it_had_ended_earlier(tmp_path, repo_root):
     cells = row(run, 10.0).split("|")
     assert cells[1].strip() == "cfd3, t ≤ 10" and len(cells) == 6 + 4 + 2  # CFD3's six quantities
     assert cells[8].strip() == "+10.00" and row(run).split("|")[8].strip() in ("+0.00", "-0.00")
+
+
+def test_the_roughness_of_a_record_sees_a_kick_after_a_change_of_step(tmp_path):
+    """campaigns/step_change_kick.py: a smooth drag's rows lie on the line through their neighbours up to its
+    curvature, A (2πf δt)²/2 on a sine; a kick of 1 N on the row after a change of step shows there."""
+    from step_change_kick import roughness
+
+    run = tmp_path / "run"
+    run.mkdir()
+    dt = np.r_[np.full(200, 1e-3), np.full(200, 1.2e-3)]
+    t = np.cumsum(dt)
+    drag = 30.0 * np.sin(2 * np.pi * 11.0 * t)
+    lift, uy = 150.0 * np.sin(2 * np.pi * 5.5 * t), 0.035 * np.sin(2 * np.pi * 5.5 * t)
+    kicked = drag.copy()
+    kicked[200] += 1.0  # the first row of the larger step
+    for name, values in (("smooth", drag), ("kicked", kicked)):
+        columns = zip(*(a.tolist() for a in (t, dt, values, lift, uy)))
+        rows = ["t,dt,drag,lift,uy_A"] + [",".join(map(repr, row)) for row in columns]
+        (run / "timeseries.csv").write_text("\n".join(rows) + "\n")
+        cells = [c.strip() for c in roughness(run, 0.0, 1.0).split("|")[1:-1]]
+        assert cells[3] == "1"  # one change of step
+        rms, largest = (float(v) for v in cells[4].split(" / "))
+        curvature = 30.0 * (2 * np.pi * 11.0 * 1.2e-3) ** 2 / 2
+        if name == "smooth":
+            assert largest <= 1.01 * curvature
+        else:
+            assert 0.99 < largest < 1.0 + curvature and float(cells[7].split(" / ")[0]) > 0.99
