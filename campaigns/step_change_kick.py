@@ -42,11 +42,10 @@ def roughness(run: Path, t0: float, t1: float) -> str:
     steps = series["dt"][keep] if "dt" in series else np.diff(t[keep])
     changed = np.abs(np.diff(steps)) > 1e-12 * steps[1:]
     cells = [run.name, f"{keep.sum()}", f"{np.median(steps):.3g}", f"{changed.sum()}"]
-    for key in ("drag", "lift", "uy_A"):
-        r = deviation(t[keep], series[key][keep])
-        cells.append(f"{np.sqrt(np.mean(r ** 2)):.3g} / {r.max():.3g}")
-    r = deviation(t[keep], series["drag"][keep])
-    after = changed[:len(r)] if len(changed) >= len(r) else np.r_[changed, [False] * (len(r) - len(changed))]
+    rows = {key: deviation(t[keep], series[key][keep]) for key in ("drag", "lift", "uy_A")}
+    cells += [f"{np.sqrt(np.mean(r ** 2)):.3g} / {r.max():.3g}" for r in rows.values()]
+    r = rows["drag"]
+    after = changed[:len(r)]  # row k + 1 is the first of a changed step
     cells.append(f"{r[after].mean():.3g} / {r[~after].mean():.3g}" if after.any() else f"– / {r.mean():.3g}")
     return "| " + " | ".join(cells) + " |"
 

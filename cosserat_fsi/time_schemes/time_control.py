@@ -75,9 +75,8 @@ class TimeControl:
         return min(state.steps.next or self.dt0, self.dt_max)
 
     def cut_to_end(self, state, dt: float) -> bool:
-        """Is ``dt`` the controller's step cut short by :meth:`proposal` to land on t_end?"""
-        wanted = self.wanted(state)
-        return dt < wanted * (1.0 - 1e-9) and wanted > 0.5 * (self.t_end - state.t) * (1.0 - 1e-9)
+        """Is ``dt`` the :meth:`proposal`, cut short of the controller's step to land on t_end?"""
+        return dt == self.proposal(state) < self.wanted(state)
 
     def proposal(self, state) -> float:
         """The size of the coming step: the controller's, within [dt_min, dt_max], ending at t_end."""
@@ -182,7 +181,8 @@ class TimeControl:
             return True
         if failure is None and self.accepts(error):
             if self.cut_to_end(state, dt):  # judged as the step it was cut from (module docstring)
-                dt, error = self.wanted(state), error * (self.wanted(state) / dt) ** k
+                wanted = self.wanted(state)
+                dt, error = wanted, error * (wanted / dt) ** k
             if error == 0.0:
                 factor = GROWTH
             elif steps.error > 0.0:
