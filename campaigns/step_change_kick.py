@@ -3,6 +3,7 @@ the response of a fixed-step run's checkpoint to one prescribed change.
 
     python campaigns/step_change_kick.py roughness T0 T1 RUN_DIR [RUN_DIR ...]   # per run, over T0 <= t <= T1
     python campaigns/step_change_kick.py kick RUN_DIR [--ratio 1.2] [--steps 10,20]
+    python campaigns/step_change_kick.py fitted 0.1 RUN_DIR [RUN_DIR ...]       # FSI3 runs
 
 ``roughness``: per run, the median step, how many steps change the step size, and for the drag, the lift and
 uy(A) the RMS and the largest deviation of each row from the straight line through its two neighbours (in
@@ -10,7 +11,9 @@ time: a smooth signal's deviation is its curvature, A (2πf δt)²/2 at most: ab
 δt = 0.00125), the deviation after a change and after none. ``kick``: from RUN_DIR's checkpoint (a
 fixed-step run), ``--steps`` n₁ steps of the run's own δt then n₂ of ``ratio`` × δt, prescribed with
 ``Simulation.step(dt=...)``, and the same n₁ + n₂ steps at the run's δt: the drag's deviation row by row.
-Used by docs/fsi3_table.md ("A finer flag at level 1's fluid").
+``fitted``: each FSI3 quantity's mean and amplitude errors with the verdict's extrema and with least-squares
+parabolas over ± FIT × the period (cosserat_fsi.analysis, ``fit``): how much of an amplitude error is the
+step-scale roughness at an extremum. Used by docs/fsi3_table.md ("A finer flag at level 1's fluid").
 """
 
 from __future__ import annotations
@@ -71,6 +74,24 @@ def kick(run: Path, ratio: float, steps: tuple[int, int]) -> list[str]:
     return lines
 
 
+def fitted(run: Path, fit: float) -> str:
+    """One markdown row: each FSI3 quantity's mean and amplitude errors (%) with the extrema of the verdict
+    (three-sample vertices) → with least-squares parabolas over ± ``fit`` × the period."""
+    from cosserat_fsi.analysis import periodic_analysis
+    from cosserat_fsi.app.verdict import periodic_error
+    from cosserat_fsi.io import read_timeseries
+    from cosserat_fsi.references import reference_for
+
+    series, reference = read_timeseries(run / "timeseries.csv"), reference_for("turek_hron_fsi3")
+    cells = [run.name]
+    for key in ("ux_A", "uy_A", "drag", "lift"):
+        results = [periodic_analysis(series["t"], series[key], fit=f) for f in (None, fit)]
+        for part in ("mean", "amplitude"):
+            a, b = (100 * periodic_error(r[part], reference[key], part)[0] for r in results)
+            cells.append(f"{a:+.2f} → {b:+.2f}")
+    return "| " + " | ".join(cells) + " |"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="what", required=True)
@@ -82,8 +103,17 @@ def main() -> None:
     one.add_argument("run", type=Path)
     one.add_argument("--ratio", type=float, default=1.2)
     one.add_argument("--steps", type=lambda s: tuple(int(n) for n in s.split(",")), default=(10, 20))
+    fit = sub.add_parser("fitted")
+    fit.add_argument("fit", type=float)
+    fit.add_argument("runs", nargs="+", type=Path)
     args = parser.parse_args()
-    if args.what == "roughness":
+    if args.what == "fitted":
+        print("| run | " + " | ".join(f"{q} {p}" for q in ("ux_A", "uy_A", "drag", "lift") for p in ("mean", "ampl"))
+              + " |")
+        print("|---" * 9 + "|")
+        for run in args.runs:
+            print(fitted(run, args.fit))
+    elif args.what == "roughness":
         print("| run | rows | median δt | step changes | drag RMS / max (N) | lift RMS / max (N) | uy(A) RMS / max (m) "
               "| drag after a change / after none (N) |")
         print("|---" * 8 + "|")
