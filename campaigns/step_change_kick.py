@@ -82,9 +82,11 @@ def fitted(run: Path, fit: float) -> str:
     from cosserat_fsi.io import read_timeseries
     from cosserat_fsi.references import reference_for
 
+    from fsi3_table import QUANTITIES
+
     series, reference = read_timeseries(run / "timeseries.csv"), reference_for("turek_hron_fsi3")
     cells = [run.name]
-    for key in ("ux_A", "uy_A", "drag", "lift"):
+    for key in QUANTITIES:
         results = [periodic_analysis(series["t"], series[key], fit=f) for f in (None, fit)]
         for part in ("mean", "amplitude"):
             a, b = (100 * periodic_error(r[part], reference[key], part)[0] for r in results)
@@ -108,9 +110,11 @@ def main() -> None:
     fit.add_argument("runs", nargs="+", type=Path)
     args = parser.parse_args()
     if args.what == "fitted":
-        print("| run | " + " | ".join(f"{q} {p}" for q in ("ux_A", "uy_A", "drag", "lift") for p in ("mean", "ampl"))
-              + " |")
-        print("|---" * 9 + "|")
+        from fsi3_table import QUANTITIES
+
+        cells = [f"{q} {p}" for q in QUANTITIES for p in ("mean", "ampl")]
+        print("| run | " + " | ".join(cells) + " |")
+        print("|---" * (len(cells) + 1) + "|")
         for run in args.runs:
             print(fitted(run, args.fit))
     elif args.what == "roughness":
