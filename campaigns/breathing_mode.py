@@ -6,8 +6,9 @@ Prints, for each written step in [T0, T1]: the solid's area against its referenc
 fields.h5 on the moved mesh), the outlet's flow rate (timeseries.csv) and the pressure at B (0.15, 0.2);
 then the half-periods of the flow rate's oscillation about a quadratic trend (its zero crossings) and the
 lumped model's frequency f = sqrt(K H / (V rho_f L)) / 2 pi for the heavy, soft flag of
-configs/turek_hron_fsi3_heavy_soft.yaml (docs/perf_adaptive_step.md, "Large deformation with a compressible
-flag"). Serial output of a serial run (fields.h5 of one rank's mesh order is enough for areas).
+configs/turek_hron_fsi3_heavy_soft.yaml with the quadratic displacement (docs/perf_adaptive_step.md,
+"Large deformation with a compressible flag"). Serial output of a serial run (fields.h5 of one rank's mesh
+order is enough for areas).
 """
 
 from __future__ import annotations

@@ -33,10 +33,14 @@ BASE = {"geometry.level": 0, "time.dt": 0.005, "time.t_end": 2.0, "inflow.ramp_t
         # and its law (the shipped scene carries the benchmark's St Venant–Kirchhoff solid)
         **INCOMPRESSIBLE, **FSI3_VOLUME_CORRECTION}
 MICRO = {"micropolar.lambda1": 1.0e-4, "micropolar.inertia": 1.0e-4}
-# large deformations: the shipped scene files themselves (L1, BDF2, δt 0.002, remeshing at
+# large deformations: the shipped scene files themselves (L1, BDF2, δt 0.002 or capped there, remeshing at
 # q < 0.35), run to their end on 2 MPI ranks (their serial runs are in docs/perf_mesh_motion.md, "Remeshing")
-LARGE = {"large-heavy-soft": ("configs/turek_hron_fsi3_heavy_soft.yaml: ρ_s = 10⁴, μ_s = 5·10⁵, Ū = 1, t = 15",
+LARGE = {"large-heavy-soft": ("configs/turek_hron_fsi3_heavy_soft.yaml: ρ_s = 10⁴, μ_s = 5·10⁵, ν = 0.4 (St Venant–"
+                              "Kirchhoff, linear displacement), Ū = 1, adaptive step, t = 15",
                               "configs/turek_hron_fsi3_heavy_soft.yaml"),
+         "large-heavy-soft-incompressible": ("configs/turek_hron_fsi3_heavy_soft_incompressible.yaml: the same flag "
+                                             "incompressible, δt = 0.002",
+                                             "configs/turek_hron_fsi3_heavy_soft_incompressible.yaml"),
          "large-soft-fast": ("configs/turek_hron_fsi3_soft_fast.yaml: μ_s ÷ 10 (2·10⁵), Ū = 2, t = 10",
                              "configs/turek_hron_fsi3_soft_fast.yaml")}
 LARGE_RANKS = 2
@@ -71,9 +75,13 @@ WHY = {
     "mu_r-1000": "the ω equation and its coupling are implicit, so a large μ_r only stiffens the system",
     "inertia-1e-6": "ρI/δt becomes negligible: ω is quasi-static, an algebraic constraint the monolithic "
                     "solve handles",
-    "large-heavy-soft": "the run that once stopped (harmonic mesh motion: exit 3 at t = 7.966); the biharmonic "
-                        "extension and remeshing keep the cells valid through the saturated swing (lowest q 0.340; "
-                        "5,445 cells, 5,523–5,617 after the remeshes)",
+    "large-heavy-soft": "the compressible law at large deformation: the displacement linear on each cell, like the "
+                        "mesh, keeps its mid-edge nodes on the mesh (with the quadratic one the run stops at t = "
+                        "10.56); the step capped at 0.002 (uncapped: exit 3 at t = 7.79); no remesh needed (lowest "
+                        "q 0.395)",
+    "large-heavy-soft-incompressible": "the run that once stopped (harmonic mesh motion: exit 3 at t = 7.966); the "
+                                       "biharmonic extension and remeshing keep the cells valid through the saturated "
+                                       "swing (lowest q 0.340; 5,445 cells, 5,523–5,617 after the remeshes)",
     "large-soft-fast": "many centimetres of tip motion at the benchmark inflow, a 6.7 Hz swing; the biharmonic "
                        "extension keeps every fluid cell above q = 0.45, so no remesh is triggered (at q < 0.35); "
                        "2 ranks = 1 rank to 3e-12 m over the whole run",

@@ -153,6 +153,13 @@ BAD = [
     ("incompressible_without_mu", CSM, ["solid.law=mooney_rivlin_incompressible", "solid.lambda_s=null",
                                         "solid.mu_s=null"], "solid.mu_s: missing key"),
     ("compressible_c2", CSM, ["solid.c2=1.0"], "solid.c2: only for solid.law mooney_rivlin_incompressible"),
+    ("linear_displacement_steady", CSM, ["solid.displacement=linear"],
+     "solid.displacement: linear is for the BDF schemes (characteristics1, characteristics2, ale_bdf2; got "
+     "time.scheme steady)"),
+    ("linear_displacement_generalized_alpha", CSM, ["solid.displacement=linear", "time.scheme=generalized_alpha",
+                                                    "time.dt=0.01", "time.t_end=1.0"],
+     "solid.displacement: linear is for the BDF schemes"),
+    ("bad_displacement", CSM, ["solid.displacement=cubic"], "solid.displacement: must be one of quadratic, linear"),
     ("compressible_volume_correction", CSM, ["solid.volume_correction=true"],
      "solid.volume_correction: only for solid.law mooney_rivlin_incompressible"),
     ("compressible_volume_correction_time", CSM, ["solid.volume_correction_time=0.002"],

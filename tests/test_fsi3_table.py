@@ -92,3 +92,24 @@ def test_the_fitted_row_takes_the_spikes_out_of_the_drag_amplitude(tmp_path):
     for k, (vertex, fit) in enumerate(errors):
         if k not in (4, 5):  # the drag mean carries the spikes' own mean, 1/3 N
             assert abs(vertex) < 0.1 and abs(fit) < 0.1, (k, vertex, fit)
+
+
+def test_large_runs_row(tmp_path):
+    """campaigns/large_runs.py: a saturated swing uy(A) = 8 cm sin(2π 1.9 t) + 0.2 cm, ux(A) = −3 cm (1 −
+    cos 2ωt)/2, is read back over t ≥ 11 as −7.80 / +8.20 cm at 1.900 Hz, ux(A) min −3.00 cm; the second run,
+    twice as long, at 2.00 × the first."""
+    from large_runs import row
+
+    t = np.arange(0.0, 15.0 + 1e-9, 2e-3)
+    uy = 0.08 * np.sin(2 * np.pi * 1.9 * t) + 0.002
+    ux = -0.03 * (1 - np.cos(4 * np.pi * 1.9 * t)) / 2
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "timeseries.csv").write_text("t,ux_A,uy_A\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t, ux, uy)))
+    summary = {"ranks": 1, "status": "completed", "time": {"steps": len(t) - 1, "rejected_steps": 2},
+               "remeshes": {"count": 0}, "mesh_quality": {"lowest": 0.4}, "wall_time": {"total": 500.0}}
+    (run / "summary.json").write_text(json.dumps(summary))
+    text, wall = row(run, 11.0, None)
+    cells = [c.strip() for c in text.split("|")[1:-1]]
+    assert cells[3:9] == ["7,500 (2)", "0", "-7.80 / +8.20", "1.900", "-3.00", "0.400"], cells
+    assert row(run, 11.0, 250.0)[0].rstrip(" |").endswith("2.00")

@@ -137,6 +137,12 @@ class Solid(_Section):
     initial_velocity: list[float] = Field(default=[0.0, 0.0], min_length=2, max_length=3)  # 3 in 3D
     """Uniform initial velocity of the solid (m/s), e.g. to start a free vibration; 3 components in 3D (not
     given: zero, with the scene's dimension)."""
+    displacement: Literal["quadratic", "linear"] = "quadratic"
+    """The displacement carried from step to step (BDF schemes): ``quadratic``, P2 like the velocity, its
+    mid-edge nodes moved by their own velocity (eq. 28); ``linear``, after each step its interpolant linear
+    on each cell, the degree of the mesh that moves with the solid. On a large-deformation compressible flag
+    the P2 mid-edge nodes drift from the P1 mesh and the run stops; the linear one runs, a little stiffer
+    (docs/perf_adaptive_step.md)."""
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
     """How the fluid mesh follows the solid."""
 

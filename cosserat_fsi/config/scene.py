@@ -89,6 +89,9 @@ class Scene(_Section):
         if time.scheme == "characteristics2" and time.corrector_passes and not self.has_solid:
             raise ValueError("time.corrector_passes: needs a solid with scheme characteristics2 (the passes "
                              "re-place the mesh; Picard passes: scheme ale_bdf2 or generalized_alpha)")
+        if self.has_solid and self.solid.displacement == "linear" and time.scheme in ("generalized_alpha", "steady"):
+            raise ValueError(f"solid.displacement: linear is for the BDF schemes (characteristics1, "
+                             f"characteristics2, ale_bdf2; got time.scheme {time.scheme})")
         if geo.FLUID and self.fluid is None:
             raise ValueError(f"fluid: missing section (required for geometry {geo.name})")
         if not geo.FLUID and self.fluid is not None:

@@ -7,6 +7,8 @@ base X + (4D^n − D^{n−1})/3 where d* lives, or (``EXTRAPOLATED_CONFIGURATION
 X + 2D^n − D^{n−1}, the nodes' places at t^{n+1} to O(δt²); the solid vertices then move on from the base.
 With steps of varying size (``time.tolerance``, or
 ``Simulation.step(dt=...)``) the weights are those of the step ratio (variable_step.BdfWeights) everywhere.
+With ``solid.displacement: linear`` each step's d^{n+1} is replaced by its interpolant linear on each cell,
+the degree of the mesh that moves with the solid (docs/perf_adaptive_step.md).
 """
 
 from __future__ import annotations
@@ -37,6 +39,9 @@ class BdfStep(TimeStep):
         self.passes = 0  # re-solves per BDF2 step (time.corrector_passes, :meth:`_pass`)
         self._alpha_of_A = None
         self._velocity_now = None  # check_motion(): the attempted step's velocity
+        solid = problem.scene.solid
+        self.linear_displacement = self.d_star is not None and solid.displacement == "linear"
+        self._linear_spaces = None  # (P1 vector function, scratch function of d's space)
 
     def _build_forms(self):
         """The step's forms and right-hand side vector (once the subclass has set up what they use)."""
@@ -99,7 +104,26 @@ class BdfStep(TimeStep):
             return None
         dim, nodes = self.problem.mesh.geometry.dim, self.problem.solid_velocity_dofs
         u = self._new_velocity().reshape(-1, dim)[nodes]
-        return self.d_star.x.array.reshape(-1, dim)[nodes] + (self.dt / self.bdf.alpha) * u
+        d = self.d_star.x.array.reshape(-1, dim)[nodes] + (self.dt / self.bdf.alpha) * u
+        return self._linear_on_cells(d) if self.linear_displacement else d
+
+    def _linear_on_cells(self, values: np.ndarray) -> np.ndarray:
+        """The solid nodes' displacement ``values`` (node × component) → its interpolant linear on each cell:
+        a vertex keeps its value, a mid-edge node gets the mean of its edge's two (``solid.displacement:
+        linear``; the solid's edges have solid vertices, so the fluid's values do not enter)."""
+        V = self.state.displacement.function_space
+        if self._linear_spaces is None:
+            dim = self.problem.mesh.geometry.dim
+            P1 = compat.function_space(V.mesh, "Lagrange", 1, shape=(dim,))
+            self._linear_spaces = (dolfinx.fem.Function(P1), dolfinx.fem.Function(V))
+        linear, full = self._linear_spaces
+        nodes = self.problem.solid_velocity_dofs
+        full.x.array[:] = self.state.displacement.x.array
+        full.x.array.reshape(-1, values.shape[1])[nodes] = values
+        full.x.scatter_forward()
+        linear.interpolate(full)
+        full.interpolate(linear)
+        return full.x.array.reshape(-1, values.shape[1])[nodes].copy()
 
     def _prepare(self, bdf: BdfWeights, t_new: float) -> None:
         """Before the matrix is assembled (the nodal scheme sets its convecting velocity)."""
@@ -135,6 +159,8 @@ class BdfStep(TimeStep):
         d, d_star = state.displacement.x.array.reshape(-1, dim), self.d_star.x.array.reshape(-1, dim)
         nodes = self.problem.solid_velocity_dofs
         d[nodes] = d_star[nodes] + (self.dt / alpha) * state.velocity.x.array.reshape(-1, dim)[nodes]
+        if self.linear_displacement:
+            d[nodes] = self._linear_on_cells(d[nodes])
         state.displacement.x.scatter_forward()
 
     # ------------------------------------------------------------------------------ the mesh
