@@ -105,7 +105,8 @@ def test_large_runs_row(tmp_path):
     ux = -0.03 * (1 - np.cos(4 * np.pi * 1.9 * t)) / 2
     run = tmp_path / "run"
     run.mkdir()
-    (run / "timeseries.csv").write_text("t,ux_A,uy_A\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t, ux, uy)))
+    lines = "".join(f"{a:.17g},{b:.17g},{c:.17g}\n" for a, b, c in zip(t, ux, uy))
+    (run / "timeseries.csv").write_text("t,ux_A,uy_A\n" + lines)
     summary = {"ranks": 1, "status": "completed", "time": {"steps": len(t) - 1, "rejected_steps": 2},
                "remeshes": {"count": 0}, "mesh_quality": {"lowest": 0.4}, "wall_time": {"total": 500.0}}
     (run / "summary.json").write_text(json.dumps(summary))
