@@ -141,8 +141,8 @@ class Solid(_Section):
     """The displacement carried from step to step (BDF schemes): ``quadratic``, P2 like the velocity, its
     mid-edge nodes moved by their own velocity (eq. 28); ``linear``, after each step its interpolant linear
     on each cell, the degree of the mesh that moves with the solid. On a large-deformation compressible flag
-    the P2 mid-edge nodes drift from the P1 mesh and the run stops; the linear one runs, a little stiffer
-    (docs/perf_adaptive_step.md)."""
+    the P2 mid-edge nodes drift from the P1 mesh and the run stops; the linear one runs (and gives CSM3's
+    first swing to 3e-5 of the quadratic one's; docs/perf_adaptive_step.md)."""
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
     """How the fluid mesh follows the solid."""
 
