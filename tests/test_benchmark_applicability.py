@@ -152,6 +152,23 @@ def test_a_quantity_without_a_value_is_no_fail_either():
     assert "FAIL" not in "\n".join(verdict_lines(summary))
 
 
+@pytest.mark.parametrize("status", ["diverged", "interrupted", "failed"])
+def test_a_run_that_did_not_complete_gets_its_values_without_a_verdict(status):
+    """FSI3 stopped at t = 0.026 (a step rejected at dt_min): a lift of round-off "periodic" at 2.7 kHz must
+    not pass, and the quantities not periodic yet must not FAIL either: values, "n/a", one line saying why."""
+    scene = SHIPPED["turek_hron_fsi3.yaml"]
+    summary = _summary(scene)
+    summary.update(status=status, time={"t_final": 0.0261784, "steps": 217})
+    rows = benchmark_rows(summary)
+    assert len(rows) == 12 and {row[5] for row in rows} == {"n/a"}
+    lines = verdict_lines(summary)
+    assert lines[0] == (f"benchmark turek_hron_fsi3: not judged: the run {status} at t = 0.0261784 (a verdict "
+                        "is given for a completed run)"), lines[0]
+    assert not any(word in "\n".join(lines) for word in ("PASS", "FAIL", " pass")), lines
+    summary["status"] = "completed"
+    assert verdict_lines(summary)[0] == "benchmark turek_hron_fsi3: PASS (12/12 within tolerance)"
+
+
 def test_numerical_choices_do_not_change_the_problem():
     data = base_scene("turek_hron_fsi3")
     data["geometry"].update(level=0, flag_mesh="structured")

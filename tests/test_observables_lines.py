@@ -208,6 +208,12 @@ def test_periodic_reference_parts_and_a_column_not_periodic_yet():
     lines = verdict_lines(summary)
     assert "reference: FAIL (2/3 within tolerance)" in lines
     assert any(line.startswith("uy_tip.amplitude") and line.rstrip().endswith("pass") for line in lines)
+    summary.update(status="diverged", time={"t_final": 0.0261784})  # the same values, a run that stopped
+    summary["reference"] = compare_with_scene_reference(reference, summary)
+    assert {entry["verdict"] for entry in summary["reference"].values()} == {"n/a"}
+    lines = verdict_lines(summary)
+    assert "reference: not judged: the run diverged at t = 0.0261784 (a verdict is given for a completed run)" in lines
+    assert not any(word in "\n".join(lines) for word in ("PASS", "FAIL", " pass")), lines
 
 
 def test_flow_rate_through_an_interior_group_is_refused(tmp_path):

@@ -100,6 +100,19 @@ def applicable(summary: dict) -> bool:
     return (summary.get("benchmark") or {}).get("applicable", True) is not False
 
 
+def completed(summary: dict) -> bool:
+    """The run reached its t_end (or its steady solution): a run that diverged, was interrupted or failed has
+    solved part of the problem, and its values are shown without a verdict."""
+    return summary.get("status", "completed") == "completed"
+
+
+def not_judged_text(summary: dict) -> str:
+    """``not judged: the run diverged at t = 0.0262 (a verdict is given for a completed run)``."""
+    t_final = (summary.get("time") or {}).get("t_final")
+    at = f" at t = {t_final:.6g}" if isinstance(t_final, (int, float)) else ""
+    return f"not judged: the run {summary.get('status')}{at} (a verdict is given for a completed run)"
+
+
 def not_applicable_text(bench: dict) -> str:
     """``reference not applicable: solid.law differs (neo_hookean; the benchmark: saint_venant_kirchhoff)``,
     with the number of defining keys that differ when more than one does."""
@@ -122,12 +135,12 @@ def _value(value) -> str:
 
 def benchmark_rows(summary: dict) -> list[tuple]:
     """(quantity, value, reference, error, tolerance, verdict) for each compared quantity; verdict "n/a" for
-    every row of a run whose scene is not its benchmark's problem."""
+    every row of a run whose scene is not its benchmark's problem or that did not complete."""
     bench = summary.get("benchmark") or {}
     name = bench.get("name")
     tolerances = TOLERANCES.get(name, {})
     exact = name in ("micropolar_poiseuille", "micropolar_taylor_green")
-    judged = applicable(summary)
+    judged = applicable(summary) and completed(summary)
     rows = []
     for key, entry in bench.items():
         if key in BENCHMARK_KEYS or not isinstance(entry, dict):
@@ -174,7 +187,8 @@ def check_reference(scene, columns: list[str]) -> None:
 
 def compare_with_scene_reference(reference: dict, summary: dict) -> dict:
     """summary.json's ``reference``: {label: {value, reference, error, tolerance, absolute, verdict}} for a
-    scene's own ``reference`` section; a periodic part of a column that is not periodic by the end FAILs."""
+    scene's own ``reference`` section; a periodic part of a column that is not periodic by the end FAILs; a run
+    that did not complete gets "n/a"."""
     final, periodic, signals = summary.get("final", {}), summary.get("periodic", {}), summary.get("signals", {})
     out = {}
     for name, ref in reference.items():
@@ -188,7 +202,8 @@ def compare_with_scene_reference(reference: dict, summary: dict) -> dict:
             tol = ref.abs_tolerance if absolute else ref.tolerance
             ok = error is not None and abs(error) <= tol
             out[label] = {"value": value, "reference": expected, "error": error, "tolerance": tol,
-                          "absolute": absolute, "verdict": "pass" if ok else "FAIL"}
+                          "absolute": absolute,
+                          "verdict": ("pass" if ok else "FAIL") if completed(summary) else "n/a"}
     return out
 
 
@@ -225,6 +240,9 @@ def verdict_lines(summary: dict) -> list[str]:
     if summary.get("benchmark") and not applicable(summary):  # another problem: values, no verdict
         lines.append(f"benchmark {summary['benchmark']['name']}: {not_applicable_text(summary['benchmark'])}")
         lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), rows) if rows else []
+    elif summary.get("benchmark") and not completed(summary):  # part of the problem: values, no verdict
+        lines.append(f"benchmark {summary['benchmark']['name']}: {not_judged_text(summary)}")
+        lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), rows) if rows else []
     elif rows:
         bench = summary["benchmark"]["name"]
         judged = [r for r in rows if r[5] != "–"]
@@ -235,7 +253,8 @@ def verdict_lines(summary: dict) -> list[str]:
     own = reference_rows(summary)
     if own:
         ok = sum(r[5] == "pass" for r in own)
-        lines.append(f"reference: {'PASS' if ok == len(own) else 'FAIL'} ({ok}/{len(own)} within tolerance)")
+        lines.append(f"reference: {not_judged_text(summary)}" if not completed(summary) else
+                     f"reference: {'PASS' if ok == len(own) else 'FAIL'} ({ok}/{len(own)} within tolerance)")
         lines += _table(("quantity", "value", "reference", "error", "tolerance", "verdict"), own)
     final, periodic, signals = summary.get("final", {}), summary.get("periodic", {}), summary.get("signals", {})
     parts = []
