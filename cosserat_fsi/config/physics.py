@@ -142,7 +142,9 @@ class Solid(_Section):
     mid-edge nodes moved by their own velocity (eq. 28); ``linear``, after each step its interpolant linear
     on each cell, the degree of the mesh that moves with the solid. On a large-deformation compressible flag
     the P2 mid-edge nodes drift from the P1 mesh and the run stops; the linear one runs (and gives CSM3's
-    first swing to 3e-5 of the quadratic one's; docs/perf_adaptive_step.md)."""
+    first swing to 3e-5 of the quadratic one's). With ``time.tolerance`` cap the step (``time.dt_max``): a
+    change of step can kick the linear flag (FSI3 at tolerance 1e-2 stops at t = 0.026), and on FSI3 its
+    forces are further from the benchmark than the quadratic one's (docs/perf_adaptive_step.md)."""
     mesh_motion: MeshMotionSettings = Field(default_factory=MeshMotionSettings)
     """How the fluid mesh follows the solid."""
 
