@@ -7,7 +7,8 @@ half swing of an asymmetric flag, and the last cycle alone would give one or the
 the record ends (measured on FSI3: ux(A) mean -4.6 / -8.9 %, drag amplitude +4.6 / -4.2 % in alternate
 cycles); two periods hold both. Periods are cut at the
 maxima of the dominant oscillation: a maximum is the largest sample of a complete excursion above
-``mid + h`` entered from and left to below ``mid - h`` (hysteresis ``h`` = half the amplitude), so
+``mid + h`` entered from and left to below ``mid - h`` (hysteresis ``h`` = half the amplitude; the range
+that of the last half, or of the last four periods when the last half begins with a larger transient), so
 small harmonics do not create extra periods. Each maximum is refined by parabolic interpolation.
 
 A signal with a step-scale roughness (the forces after each change of an adaptive step: docs/fsi3_table.md)
@@ -78,6 +79,22 @@ def cycle_peaks(y: np.ndarray, part: np.ndarray) -> np.ndarray:
     return _cycle_maxima(y, *_levels(part))
 
 
+LEVEL_PERIODS = 4
+"""The cycles are cut with the levels of the last ``LEVEL_PERIODS`` periods (of the FFT frequency)."""
+
+
+def _recent(t: np.ndarray, y: np.ndarray, half: int, frequency: float | None) -> np.ndarray:
+    """The part of the record whose range sets the levels that cut the cycles when the last half's range does
+    not (its last cycle ends more than two cycles before the record): the last ``LEVEL_PERIODS`` periods, or
+    the last half when that holds fewer than twice as many. A larger excursion early in the last half (a
+    transient not yet settled) sets levels that the settled cycles do not cross, and the "last" cycles found
+    would be the transient's (measured: FSI3 on the 8-across flag at a fixed step, whose last half began with
+    the end of a larger swing at t = 4.0–4.25)."""
+    if frequency is None or frequency * (t[-1] - t[half]) < 2 * LEVEL_PERIODS:
+        return y[half:]
+    return y[t >= t[-1] - LEVEL_PERIODS / frequency]
+
+
 def cycle_extrema(t: np.ndarray, y: np.ndarray, peaks: np.ndarray,
                   fit: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The maxima at ``peaks`` and the minimum between each two, parabola vertices through the samples:
@@ -131,6 +148,8 @@ def periodic_analysis(t, y, n_periods: int = 2, fit: float | None = None) -> dic
     result["frequency_fft"] = _fft_frequency(t[half:], tail)
 
     peaks = cycle_peaks(y, tail)
+    if len(peaks) >= 2 and t[-1] - t[peaks[-1]] > 2 * np.mean(np.diff(t[peaks])):
+        peaks = cycle_peaks(y, _recent(t, y, half, result["frequency_fft"]))  # the tail's range was a transient's
     if len(peaks) >= 3:  # refine the levels on the last two cycles
         peaks = cycle_peaks(y, y[peaks[-3]:peaks[-1] + 1])
     if len(peaks) >= n_periods + 1:

@@ -63,6 +63,22 @@ def test_alternating_cycles_give_the_envelope_wherever_the_record_ends():
         assert r["amplitude"] == pytest.approx((top - bottom) / 2, abs=1e-5)
 
 
+def test_a_larger_swing_early_in_the_last_half_does_not_hide_the_last_periods():
+    """The last half begins with the end of a larger swing (8-across FSI3 at a fixed step: ux(A) down to −7.8 mm
+    at t = 4.0–4.25, then settled cycles between −5.76 and −0.19 mm): levels taken from the whole last half
+    lie outside the settled cycles, and the analysis took two periods of the transient (there: mean −4.03 mm,
+    amplitude 3.79 mm; here −4.24 / 4.06). The last periods' own levels give the settled values."""
+    t = np.arange(0.0, 8.0 + 1e-12, 2.5e-3)
+    theta = 2 * np.pi * 10.9 * t
+    deeper = 3.0 * np.exp(-((t - 4.0) / 0.2) ** 2) * (1 - np.cos(theta)) / 2  # deeper minima about t = 4
+    y = -2.97 + 2.79 * np.cos(theta) - deeper
+    assert y[t >= 4.0].min() < -8.2
+    r = periodic_analysis(t, y)
+    assert r["mean"] == pytest.approx(-2.97, abs=1e-4)
+    assert r["amplitude"] == pytest.approx(2.79, abs=1e-4)
+    assert r["frequency"] == pytest.approx(10.9, rel=1e-4)
+
+
 def test_constant():
     r = periodic_analysis(T, np.full_like(T, 7.0))
     assert r["mean"] == 7.0 and r["amplitude"] == 0.0 and r["frequency"] is None
